@@ -84,8 +84,14 @@ class LiberoEnv:
 
     # construction ---------------------------------------------------------------------
     def _build(self) -> Any:
-        import robosuite
-        from libero.libero.envs import TASK_MAPPING
+        import warnings
+
+        _quiet_robosuite()
+        with warnings.catch_warnings():
+            # robosuite 1.4 has an invalid escape in its logo string; compiling it warns once.
+            warnings.simplefilter("ignore", SyntaxWarning)
+            import robosuite
+            from libero.libero.envs import TASK_MAPPING
 
         key = self.problem.problem.lower()
         if key not in TASK_MAPPING:
@@ -252,6 +258,19 @@ class LiberoEnv:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class _DropMacroNotice(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = str(record.msg)
+        return "macro file" not in text and "setup_macros" not in text
+
+
+def _quiet_robosuite() -> None:
+    """Hide robosuite's import-time advice to create a private macro file (we need none)."""
+    logger = logging.getLogger("robosuite_logs")
+    if not any(isinstance(f, _DropMacroNotice) for f in logger.filters):
+        logger.addFilter(_DropMacroNotice())
 
 
 def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:

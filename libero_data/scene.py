@@ -1,0 +1,44 @@
+"""Pictures of task scenes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from libero_data.tasks import Task
+
+
+def render_initial_scene(
+    task: Task,
+    out: str | Path,
+    *,
+    size: int = 256,
+    init: int = 0,
+    seed: int = 0,
+    renderer: str | None = None,
+) -> Path:
+    """Render the task's initial scene from stored init state ``init`` and save a PNG.
+
+    Both cameras are placed side by side (agentview left, eye-in-hand right). Tasks without
+    stored init states (plain BDDL files) use LIBERO's placement sampler with ``seed``.
+    """
+    from PIL import Image
+
+    from libero_data.sim import EnvConfig, LiberoEnv
+
+    state = None
+    if task.init_states_path is not None:
+        states = task.init_states()
+        if not 0 <= init < len(states):
+            raise ValueError(f"task {task.id} has init states 0..{len(states) - 1}, not {init}")
+        state = states[init]
+    out = Path(out)
+    with LiberoEnv(task, EnvConfig(image_size=size, renderer=renderer)) as env:
+        obs = env.reset(state, seed=seed)
+        picture = np.concatenate([obs["agentview"], obs["eye_in_hand"]], axis=1)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".tmp")
+    Image.fromarray(picture).save(tmp, format="PNG")
+    tmp.replace(out)
+    return out
