@@ -15,6 +15,11 @@ app = typer.Typer(
 )
 
 
+@app.callback()
+def _root() -> None:
+    """Lifelong robot learning on LIBERO datasets made by libero-data."""
+
+
 @app.command("orders")
 def orders_cmd(
     order: Annotated[int | None, typer.Option("--order", help="Print only this order.", min=0)] = None,

@@ -37,7 +37,7 @@ def fail(message: str, code: int = 2) -> typer.Exit:
     return typer.Exit(code)
 
 
-def user_errors(fn: F) -> F:
+def user_errors[F: Callable[..., Any]](fn: F) -> F:
     """Turn expected failures into one sentence on stderr and exit code 2."""
 
     @functools.wraps(fn)
@@ -57,7 +57,11 @@ def user_errors(fn: F) -> F:
 def tasks_cmd(
     suite: Annotated[
         str | None,
-        typer.Option("--suite", "-s", help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100) or a suite folder; default: the five suites."),
+        typer.Option(
+            "--suite",
+            "-s",
+            help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100) or a suite folder; default: the five suites.",
+        ),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON lines instead of a table.")] = False,
 ) -> None:
@@ -73,7 +77,13 @@ def tasks_cmd(
     for s in suites:
         if as_json:
             for t in s.tasks:
-                row = {"suite": s.name, "index": t.index, "name": t.name, "language": t.language, "goal": t.goal_text}
+                row = {
+                    "suite": s.name,
+                    "index": t.index,
+                    "name": t.name,
+                    "language": t.language,
+                    "goal": t.goal_text,
+                }
                 print(json.dumps(row))
             continue
         table = Table(title=f"{s.name} ({len(s.tasks)} tasks)", title_justify="left")
@@ -87,12 +97,27 @@ def tasks_cmd(
 @app.command("show")
 @user_errors
 def show_cmd(
-    task: Annotated[str, typer.Argument(help="Task as suite/index (libero_goal/0), suite/name, task name, or a .bddl file.")],
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="PNG to write; default: <task name>.png.")] = None,
-    size: Annotated[int, typer.Option("--size", help="Image size in pixels per camera.", min=16, max=2048)] = 256,
+    task: Annotated[
+        str,
+        typer.Argument(help="Task as suite/index (libero_goal/0), suite/name, task name, or a .bddl file."),
+    ],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="PNG to write; default: <task name>.png.")
+    ] = None,
+    size: Annotated[
+        int, typer.Option("--size", help="Image size in pixels per camera.", min=16, max=2048)
+    ] = 256,
     init: Annotated[int, typer.Option("--init", help="Which stored init state to show.", min=0)] = 0,
-    seed: Annotated[int, typer.Option("--seed", help="Seed for fixture placement (and objects, for BDDL files without init states).")] = 0,
-    renderer: Annotated[str | None, typer.Option("--renderer", help="egl or osmesa; default: $MUJOCO_GL, else the first available.")] = None,
+    seed: Annotated[
+        int,
+        typer.Option(
+            "--seed", help="Seed for fixture placement (and objects, for BDDL files without init states)."
+        ),
+    ] = 0,
+    renderer: Annotated[
+        str | None,
+        typer.Option("--renderer", help="egl or osmesa; default: $MUJOCO_GL, else the first available."),
+    ] = None,
     bddl: Annotated[bool, typer.Option("--bddl/--no-bddl", help="Print the task's BDDL.")] = True,
 ) -> None:
     """Render a task's initial scene (agentview and eye-in-hand side by side) and print its BDDL."""

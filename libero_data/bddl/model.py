@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Union
 
 #: Known predicates: canonical spelling (as LIBERO's files write it) and arity.
 #: LIBERO matches predicate names case-insensitively; so does our parser.
@@ -83,7 +82,7 @@ class Not:
     term: Formula
 
 
-Formula = Union[Atom, And, Or, Not]
+type Formula = Atom | And | Or | Not
 
 
 def atoms(formula: Formula) -> Iterator[Atom]:

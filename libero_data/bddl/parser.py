@@ -160,19 +160,15 @@ def _region(reader: _Reader, node: _Node) -> Region:
             if len(values) != 1 or not isinstance(values[0], _List):
                 raise reader.error(f"region {name!r}: {key} takes one list of tuples", attr.line)
             width = 4 if key == ":ranges" else 2
-            rows = []
-            for row in values[0].items:
-                if not isinstance(row, _List) or len(row.items) != width:
-                    raise reader.error(
-                        f"region {name!r}: each {key} entry needs {width} numbers", row.line
-                    )
-                rows.append(tuple(_number(reader, v, f"region {name!r} {key} value") for v in row.items))
+            rows: list[tuple[float, ...]] = []
+            for item in values[0].items:
+                if not isinstance(item, _List) or len(item.items) != width:
+                    raise reader.error(f"region {name!r}: each {key} entry needs {width} numbers", item.line)
+                rows.append(tuple(_number(reader, v, f"region {name!r} {key} value") for v in item.items))
             if key == ":ranges":
                 for row in rows:
                     if row[0] > row[2] or row[1] > row[3]:
-                        raise reader.error(
-                            f"region {name!r}: range {row} has min > max", values[0].line
-                        )
+                        raise reader.error(f"region {name!r}: range {row} has min > max", values[0].line)
                 ranges.extend(rows)  # type: ignore[arg-type]
             else:
                 if len(rows) != 1:

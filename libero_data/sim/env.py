@@ -15,6 +15,7 @@ import numpy as np
 
 from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
 from libero_data.sim.gl import select_backend
+from libero_data.sim.imports import import_libero
 from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
 
 if TYPE_CHECKING:
@@ -79,24 +80,21 @@ class LiberoEnv:
         for name in unknown:
             if name not in model_cameras:
                 self.close()
-                raise ValueError(f"unknown camera {name!r}; choose from {sorted(CAMERAS)} or {sorted(model_cameras)}")
+                raise ValueError(
+                    f"unknown camera {name!r}; choose from {sorted(CAMERAS)} or {sorted(model_cameras)}"
+                )
         self._closed = False
 
     # construction ---------------------------------------------------------------------
     def _build(self) -> Any:
-        import warnings
-
-        _quiet_robosuite()
-        with warnings.catch_warnings():
-            # robosuite 1.4 has an invalid escape in its logo string; compiling it warns once.
-            warnings.simplefilter("ignore", SyntaxWarning)
-            import robosuite
-            from libero.libero.envs import TASK_MAPPING
+        robosuite, TASK_MAPPING = import_libero()
 
         key = self.problem.problem.lower()
         if key not in TASK_MAPPING:
             known = ", ".join(sorted(TASK_MAPPING))
-            raise ValueError(f"{self.bddl_path}: unknown LIBERO problem {self.problem.problem!r} (known: {known})")
+            raise ValueError(
+                f"{self.bddl_path}: unknown LIBERO problem {self.problem.problem!r} (known: {known})"
+            )
         cameras = bool(self.config.cameras)
         return TASK_MAPPING[key](
             bddl_file_name=str(self.bddl_path),
@@ -142,7 +140,9 @@ class LiberoEnv:
         return [f.name for f in self.problem.fixtures]
 
     # episode control --------------------------------------------------------------------
-    def reset(self, init_state: np.ndarray | None = None, *, seed: int = 0, render: bool = True) -> dict[str, Any]:
+    def reset(
+        self, init_state: np.ndarray | None = None, *, seed: int = 0, render: bool = True
+    ) -> dict[str, Any]:
         """Reset the scene; fixtures are placed from ``seed``, objects from ``init_state``.
 
         Without ``init_state`` the objects are placed by LIBERO's own sampler from ``seed``.
@@ -205,7 +205,9 @@ class LiberoEnv:
         eef_quat = np.asarray(raw["robot0_eef_quat"], dtype=np.float64)
         gripper = np.asarray(raw["robot0_gripper_qpos"], dtype=np.float64)
         obs: dict[str, Any] = {
-            "state": np.concatenate([raw["robot0_eef_pos"], quat_to_axis_angle(eef_quat), gripper]).astype(np.float32),
+            "state": np.concatenate([raw["robot0_eef_pos"], quat_to_axis_angle(eef_quat), gripper]).astype(
+                np.float32
+            ),
             "joint_pos": np.asarray(raw["robot0_joint_pos"], dtype=np.float32),
             "gripper_state": gripper.astype(np.float32),
             "eef_pos": np.asarray(raw["robot0_eef_pos"], dtype=np.float32),
@@ -258,19 +260,6 @@ class LiberoEnv:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-class _DropMacroNotice(logging.Filter):
-    def filter(self, record: logging.LogRecord) -> bool:
-        text = str(record.msg)
-        return "macro file" not in text and "setup_macros" not in text
-
-
-def _quiet_robosuite() -> None:
-    """Hide robosuite's import-time advice to create a private macro file (we need none)."""
-    logger = logging.getLogger("robosuite_logs")
-    if not any(isinstance(f, _DropMacroNotice) for f in logger.filters):
-        logger.addFilter(_DropMacroNotice())
 
 
 def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:

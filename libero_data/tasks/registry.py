@@ -109,14 +109,14 @@ class Suite:
         if isinstance(key, int) or (isinstance(key, str) and key.lstrip("-").isdigit()):
             i = int(key)
             if not 0 <= i < len(self.tasks):
-                raise TaskLookupError(
-                    f"suite {self.name} has tasks 0..{len(self.tasks) - 1}, not {i}"
-                )
+                raise TaskLookupError(f"suite {self.name} has tasks 0..{len(self.tasks) - 1}, not {i}")
             return self.tasks[i]
         for task in self.tasks:
             if task.name == key:
                 return task
-        raise TaskLookupError(_unknown(f"task {key!r} in suite {self.name}", key, [t.name for t in self.tasks]))
+        raise TaskLookupError(
+            _unknown(f"task {key!r} in suite {self.name}", key, [t.name for t in self.tasks])
+        )
 
 
 def _unknown(what: str, key: str, candidates: list[str]) -> str:
@@ -139,7 +139,7 @@ def _tables() -> dict:
     return json.loads((_HERE / "suites.json").read_text())
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _standard_suite(name: str, root: str) -> Suite:
     tables = _tables()
     if name in tables["composite"]:

@@ -1,0 +1,82 @@
+"""``libero-data`` from the command line: tables, scene pictures and bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+
+def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "libero_data.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=300
+    )
+
+
+def test_tasks_lists_libero_100() -> None:
+    result = cli("tasks", "--suite", "libero_100", "--json")
+    assert result.returncode == 0, result.stderr
+    rows = [json.loads(line) for line in result.stdout.splitlines()]
+    assert len(rows) == 100
+    assert [r["index"] for r in rows] == list(range(100))
+    assert rows[0]["goal"].startswith("(And ")
+
+
+def test_tasks_table() -> None:
+    result = cli("tasks", "--suite", "libero_goal")
+    assert result.returncode == 0, result.stderr
+    assert "libero_goal (10 tasks)" in result.stdout
+    assert "open the middle drawer of the cabinet" in result.stdout
+    assert "(Open wooden_cabinet_1_middle_region)" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("tasks", "--suite", "libero_gaol"), "unknown suite 'libero_gaol'"),
+        (("show", "libero_goal/42"), "suite libero_goal has tasks 0..9, not 42"),
+        (("show", "pick_up_the_alphabet_soup"), "unknown task 'pick_up_the_alphabet_soup'"),
+        (("show", "missing.bddl"), "BDDL file missing.bddl does not exist"),
+    ],
+)
+def test_bad_input_is_one_sentence_and_exit_2(args: tuple[str, ...], message: str) -> None:
+    result = cli(*args)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr + result.stdout
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_malformed_bddl_file(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.bddl"
+    bad.write_text(
+        "(define (problem LIBERO_Tabletop_Manipulation)\n  (:domain robosuite)\n  (:goal (And (On a b))\n"
+    )
+    result = cli("show", str(bad))
+    assert result.returncode == 2
+    assert result.stderr.startswith(f"error: {bad}, line 3: unbalanced parentheses")
+    assert "Traceback" not in result.stderr
+
+
+def test_bad_flag_exits_2() -> None:
+    result = cli("show", "libero_goal/0", "--size", "3")
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+
+
+@pytest.mark.sim
+def test_show_writes_both_cameras_side_by_side(tmp_path: Path) -> None:
+    from PIL import Image
+
+    out = tmp_path / "scene.png"
+    result = cli("show", "libero_goal/0", "--out", str(out), "--size", "64")
+    assert result.returncode == 0, result.stderr
+    assert "(:goal" in result.stdout  # the BDDL is printed
+    assert f"wrote {out}" in result.stdout
+    picture = np.asarray(Image.open(out))
+    assert picture.shape == (64, 128, 3)
+    assert picture[:, :64].std() > 10 and picture[:, 64:].std() > 10
