@@ -26,6 +26,8 @@ log = logging.getLogger(__name__)
 #: Our camera names -> robosuite camera names.
 CAMERAS: dict[str, str] = {"agentview": "agentview", "eye_in_hand": "robot0_eye_in_hand"}
 ACTION_DIM = 7
+#: Zero motion, gripper open.
+NOOP_ACTION = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0])
 STATE_DIM = 8
 
 
@@ -141,11 +143,20 @@ class LiberoEnv:
 
     # episode control --------------------------------------------------------------------
     def reset(
-        self, init_state: np.ndarray | None = None, *, seed: int = 0, render: bool = True
+        self,
+        init_state: np.ndarray | None = None,
+        *,
+        seed: int = 0,
+        render: bool = True,
+        settle: int = 0,
     ) -> dict[str, Any]:
         """Reset the scene; fixtures are placed from ``seed``, objects from ``init_state``.
 
         Without ``init_state`` the objects are placed by LIBERO's own sampler from ``seed``.
+        ``settle`` no-op steps (gripper open) follow: stored init states hold objects a few
+        centimetres above their supports, and about 20 steps let them come to rest. The
+        returned state is canonical (see :meth:`set_state`), so an episode recorded from it
+        replays exactly from its first stored state.
         """
         from robosuite.utils.errors import RandomizationError
 
@@ -162,12 +173,25 @@ class LiberoEnv:
                 raise RuntimeError(f"{self.bddl_path}: LIBERO could not place the objects in 100 attempts")
         finally:
             np.random.set_state(saved)
-        if init_state is not None:
-            self.set_state(init_state)
+        self.set_state(self.get_state() if init_state is None else init_state)
+        if settle:
+            for _ in range(settle):
+                self._env.step(NOOP_ACTION)
+            self.set_state(self.get_state())
         return self.observe(render=render)
 
+    def get_state(self) -> np.ndarray:
+        """The flattened MuJoCo state (time, qpos, qvel) of the current frame."""
+        return np.asarray(self._env.sim.get_state().flatten(), dtype=np.float64)
+
     def set_state(self, state: np.ndarray) -> None:
-        """Restore a flattened MuJoCo state (as stored in init states and datasets)."""
+        """Restore a flattened MuJoCo state (as stored in init states and datasets).
+
+        Everything else that shapes the next steps is put in a canonical form: the gripper's
+        command ramp is fully open, the solver's warm start is cleared and the arm controller
+        re-reads the pose. So the same state
+        followed by the same actions gives the same trajectory, bit for bit.
+        """
         state = np.asarray(state, dtype=np.float64).reshape(-1)
         if state.shape[0] != self.state_dim:
             raise ValueError(
@@ -177,6 +201,16 @@ class LiberoEnv:
             raise ValueError("state contains NaN or infinite values")
         sim = self._env.sim
         sim.set_state_from_flattened(state)
+        sim.data.qacc_warmstart[:] = 0.0
+        for robot in self._env.robots:
+            # The controller caches the arm's pose and Jacobians; make it re-read them.
+            robot.controller.new_update = True
+            gripper = robot.gripper
+            # robosuite ramps the finger command a little every substep; "open" is the ramp's
+            # resting value after any stretch of open commands.
+            gripper.current_action = np.zeros(gripper.dof)
+            for _ in range(int(np.ceil(2.0 / gripper.speed)) + 1):
+                gripper.format_action(np.array([-1.0]))
         sim.forward()
         self._env._post_process()
         self._env._update_observables(force=True)
@@ -213,7 +247,7 @@ class LiberoEnv:
             "eef_pos": np.asarray(raw["robot0_eef_pos"], dtype=np.float32),
             "eef_quat": eef_quat.astype(np.float32),
             "object_poses": self.object_poses(),
-            "sim_state": self._env.sim.get_state().flatten(),
+            "sim_state": self.get_state(),
         }
         if render:
             for camera in self.config.cameras:

@@ -1,0 +1,205 @@
+"""Top-down grasps planned on collision point clouds.
+
+A candidate is a closing line over the object: a centre, a yaw and a height. It is kept
+when the object's extent between the open fingers fits the gripper, the fingers can come
+down beside the object without touching it or anything else, and the hand stays clear
+above. Candidates are scored by closeness to the centre of mass (stable lifts), grasp depth
+and clearance. Bowls and mugs come out as rim grasps, boxes and bottles as centre grasps,
+without any per-object rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from libero_data.experts.geometry import top_down, wrap_half_turn
+from libero_data.experts.scene import SceneView
+
+# Panda hand, measured from its collision geometry in the grip-site frame.
+MAX_OPENING = 0.078  # usable distance between the finger pads when open
+FINGER_HALF_WIDTH = 0.011  # half width of a finger across the closing direction
+FINGER_THICKNESS = 0.027
+PAD_HALF = 0.008  # half size of a finger pad (square)
+FINGER_LENGTH = 0.031  # from the grip site up to the hand
+TIP_BELOW_SITE = 0.01  # finger tips reach this far below the grip site
+PALM_HALF = (0.105, 0.033)  # hand half extents along / across the closing direction
+HAND_TOP = 0.125  # top of the hand above the grip site
+
+
+@dataclass(frozen=True)
+class Grasp:
+    pos: np.ndarray  # grip-site position at the grasp
+    mat: np.ndarray  # gripper orientation (top down)
+    yaw: float
+    width: float  # object extent between the fingers
+    score: float
+
+
+def plan_top_down(
+    scene: SceneView,
+    name: str,
+    *,
+    yaw_reference: float,
+    depth: float = 0.025,
+    n_yaw: int = 12,
+    spacing: float = 0.01,
+    support: float | None = None,
+    extra_obstacles: tuple[str, ...] = (),
+    max_points: int = 4000,
+    prefer: np.ndarray | None = None,
+    stats: dict[str, int] | None = None,
+    points: np.ndarray | None = None,
+    exclude: tuple[str, ...] | None = None,
+    exclude_bodies: tuple[int, ...] = (),
+) -> list[Grasp]:
+    """Feasible top-down grasps of ``name``, best first (empty when none fits).
+
+    ``stats``, when given, counts the candidates rejected for each reason. ``points``
+    replaces the object's own points (a part of a fixture, such as a knob); then
+    ``exclude`` names what else is not an obstacle (default: ``name``).
+    """
+    stats = {} if stats is None else stats
+
+    def reject(reason: str) -> None:
+        stats[reason] = stats.get(reason, 0) + 1
+
+    obj = _subsample(scene.points(name) if points is None else points, max_points)
+    lo, hi = obj.min(0), obj.max(0)
+    margin = 0.12
+    others = scene.obstacle_points(
+        exclude=(name, *extra_obstacles) if exclude is None else exclude, exclude_bodies=exclude_bodies
+    )
+    near = np.all((others[:, :2] > lo[:2] - margin) & (others[:, :2] < hi[:2] + margin), axis=1)
+    others = _subsample(others[near], max_points)
+    floor = support if support is not None else _support_below(others, lo, hi)
+    everything = np.concatenate([obj, others]) if len(others) else obj
+    if prefer is not None:
+        com = np.asarray(prefer)[:2]
+    else:
+        com = scene.com(name)[:2] if points is None else obj.mean(0)[:2]
+
+    xs = np.arange(lo[0], hi[0] + 1e-9, spacing)
+    ys = np.arange(lo[1], hi[1] + 1e-9, spacing)
+    centres = np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2)
+    candidates: list[Grasp] = []
+    for k in range(n_yaw):
+        yaw = np.pi * k / n_yaw
+        u = np.array([np.cos(yaw), np.sin(yaw)])
+        v = np.array([-u[1], u[0]])
+        du_o, dv_o = obj[:, :2] @ u, obj[:, :2] @ v
+        du_e, dv_e = everything[:, :2] @ u, everything[:, :2] @ v
+        for c in centres:
+            cu, cv = float(c @ u), float(c @ v)
+            in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
+            if in_line.sum() < 3:
+                reject("empty")
+                continue
+            top = float(obj[in_line, 2].max())
+            z = max(top - depth, floor + TIP_BELOW_SITE + 0.001)
+            if z > top - 0.003:
+                reject("shallow")
+                continue
+            span = in_line & (obj[:, 2] > z - TIP_BELOW_SITE) & (obj[:, 2] < z + FINGER_LENGTH)
+            if span.sum() < 3:
+                reject("span")
+                continue
+            lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
+            width = hi_u - lo_u
+            if width > MAX_OPENING - 0.01 or width < 0.004:
+                reject("width")
+                continue
+            # The pads must make the first contact on both sides: the outermost points
+            # between the fingers lie in front of the pads, not at a finger's edge or top.
+            pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(obj[:, 2] - z) < PAD_HALF + 0.002)
+            if (
+                pads.sum() < 2
+                or float(du_o[pads].min()) - lo_u > 0.004
+                or hi_u - float(du_o[pads].max()) > 0.004
+            ):
+                reject("pads")
+                continue
+            mid = (lo_u + hi_u) / 2
+            gu = mid
+            # The fingers come down outside [lo_u, hi_u]: nothing may be there.
+            rel_u = du_e - gu
+            rel_v = np.abs(dv_e - cv)
+            inner = MAX_OPENING / 2
+            in_fingers = (
+                (np.abs(rel_u) > width / 2 + 0.002)
+                & (np.abs(rel_u) < inner + FINGER_THICKNESS)
+                & (rel_v < FINGER_HALF_WIDTH)
+                & (everything[:, 2] > z - TIP_BELOW_SITE)
+            )
+            if in_fingers.any():
+                reject("fingers")
+                continue
+            in_palm = (
+                (np.abs(rel_u) < PALM_HALF[0])
+                & (rel_v < PALM_HALF[1])
+                & (everything[:, 2] > z + FINGER_LENGTH)
+            )
+            if in_palm.any():
+                reject("palm")
+                continue
+            # Clearance: distance from the finger volumes to the nearest other point.
+            band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (everything[:, 2] > z - TIP_BELOW_SITE)
+            outside = band & (np.abs(rel_u) > inner + FINGER_THICKNESS)
+            clearance = 0.03
+            if outside.any():
+                clearance = min(clearance, float((np.abs(rel_u[outside]) - inner - FINGER_THICKNESS).min()))
+            xy = gu * u + cv * v
+            off_centre = float(np.linalg.norm(xy - com))
+            grasp_depth = top - z
+            yaw_w = wrap_half_turn(yaw, yaw_reference)
+            score = (
+                -off_centre / 0.02
+                + min(grasp_depth, 0.03) / 0.01
+                + clearance / 0.01
+                - abs(yaw_w - yaw_reference) / 1.0
+                - max(width - 0.06, 0.0) / 0.01
+            )
+            candidates.append(
+                Grasp(
+                    pos=np.array([xy[0], xy[1], z]), mat=top_down(yaw_w), yaw=yaw_w, width=width, score=score
+                )
+            )
+    candidates.sort(key=lambda g: -g.score)
+    return candidates
+
+
+def _subsample(points: np.ndarray, n: int) -> np.ndarray:
+    if len(points) <= n:
+        return points
+    idx = np.linspace(0, len(points) - 1, n).astype(int)
+    return points[idx]
+
+
+def _support_below(others: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """Height of the surface the object rests on (the floor plane counts as z = 0)."""
+    under = np.all((others[:, :2] > lo[:2]) & (others[:, :2] < hi[:2]), axis=1) & (
+        others[:, 2] < lo[2] + 0.005
+    )
+    if under.any():
+        return float(others[under, 2].max())
+    return min(0.0, float(lo[2])) if lo[2] < 0.3 else float(lo[2])
+
+
+def hand_collisions(points: np.ndarray, pos: np.ndarray, mat: np.ndarray, opening: float = 0.0) -> int:
+    """How many ``points`` the gripper would occupy at ``pos``/``mat`` (fingers ``opening`` apart).
+
+    The gripper is modelled as boxes in its own frame (x closing, z approach): two fingers
+    from the tips up to the palm, and the hand above them.
+    """
+    local = (np.asarray(points) - pos) @ mat
+    x, y, z = local[:, 0], local[:, 1], -local[:, 2]  # z: height above the grip site
+    fingers = (
+        (np.abs(x) > opening / 2)
+        & (np.abs(x) < opening / 2 + FINGER_THICKNESS)
+        & (np.abs(y) < FINGER_HALF_WIDTH)
+        & (z > -TIP_BELOW_SITE)
+        & (z < FINGER_LENGTH)
+    )
+    hand = (np.abs(x) < PALM_HALF[0]) & (np.abs(y) < PALM_HALF[1]) & (z >= FINGER_LENGTH) & (z < HAND_TOP)
+    return int((fingers | hand).sum())

@@ -1,0 +1,99 @@
+"""From a task's goal predicates to an ordered list of skills.
+
+Rules, in the order they are applied:
+
+- atoms that already hold are skipped when the plan runs (see :mod:`runner`);
+- ``In(x, R)`` where ``R`` is a drawer that is closed: open the drawer first;
+- ``Close(R)`` after every ``In(x, R)`` into it; other ``Open``/``Close``/``Turnon``/
+  ``Turnoff`` atoms come first, in written order (a stove turned on before a pot goes on it);
+- ``On(x, y)``/``In(x, y)`` where ``y`` itself must be moved: move ``y`` first;
+- ``On(x, R)`` of a flat object that cannot be grasped from above: push it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from libero_data.bddl import Atom, Problem
+
+
+@dataclass(frozen=True)
+class Step:
+    """One skill application that makes ``atom`` true (``atom`` is None for helper steps)."""
+
+    skill: str
+    args: tuple[str, ...]
+    atom: Atom | None
+
+    def __str__(self) -> str:
+        return f"{self.skill}({', '.join(self.args)})"
+
+
+def plan(
+    problem: Problem,
+    *,
+    joint_kind: Callable[[str], str | None] = lambda name: None,
+    is_open: Callable[[str], bool] = lambda name: True,
+    graspable: Callable[[str], bool] = lambda name: True,
+) -> list[Step]:
+    """Order the goal's atoms into skills.
+
+    ``joint_kind(name)`` tells "slide" (drawers), "hinge" (doors, knobs) or None;
+    ``is_open(region)`` whether a container is open now; ``graspable(obj)`` whether a
+    top-down grasp fits the object.
+    """
+
+    def articulation(atom: Atom) -> Step:
+        name = atom.args[0]
+        if atom.predicate in ("Turnon", "Turnoff"):
+            return Step("turn_on" if atom.predicate == "Turnon" else "turn_off", atom.args, atom)
+        kind = "drawer" if joint_kind(name) == "slide" else "door"
+        verb = "open" if atom.predicate == "Open" else "close"
+        return Step(f"{verb}_{kind}", atom.args, atom)
+
+    goal = problem.goal_atoms()
+    moves = [a for a in goal if a.predicate in ("On", "In")]
+    switches = [a for a in goal if a.predicate in ("Open", "Close", "Turnon", "Turnoff")]
+
+    closing_after: dict[str, Atom] = {}
+    first: list[Atom] = []
+    for atom in switches:
+        region = atom.args[0]
+        if atom.predicate == "Close" and any(m.predicate == "In" and m.args[1] == region for m in moves):
+            closing_after[region] = atom
+        else:
+            first.append(atom)
+
+    # A target that is itself moved goes first (stack the left bowl on the right bowl and
+    # put them in the tray: the right bowl goes into the tray, then the left bowl on it).
+    ordered: list[Atom] = []
+    pending = list(moves)
+    while pending:
+        for atom in pending:
+            target = atom.args[1]
+            if not any(other is not atom and other.args[0] == target for other in pending):
+                ordered.append(atom)
+                pending.remove(atom)
+                break
+        else:  # a cycle cannot be satisfied in order; keep the written order
+            ordered += pending
+            break
+
+    steps: list[Step] = [articulation(a) for a in first]
+    opened: set[str] = set()
+    for atom in ordered:
+        obj, target = atom.args
+        if atom.predicate == "In" and joint_kind(target) and target not in opened and not is_open(target):
+            steps.append(articulation(Atom("Open", (target,))))
+            steps[-1] = Step(steps[-1].skill, steps[-1].args, None)
+            opened.add(target)
+        if atom.predicate == "On" and not graspable(obj):
+            steps.append(Step("push", (obj, target), atom))
+        else:
+            steps.append(Step("pick", (obj,), None))
+            steps.append(Step("place_in" if atom.predicate == "In" else "place_on", (obj, target), atom))
+        if target in closing_after:
+            steps.append(articulation(closing_after.pop(target)))
+    steps += [articulation(a) for a in closing_after.values()]
+    return steps

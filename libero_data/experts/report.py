@@ -1,0 +1,225 @@
+"""Measuring the expert: success rate per task over its stored init states.
+
+The work is split by task over worker processes (each builds its own simulator, see
+NOTES.md: GL contexts do not survive a fork). Results are plain rows, written as CSV and
+Markdown by :func:`write_report`.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from libero_data.experts.expert import ExpertConfig
+
+#: The success rates the expert is held to (share of stored init states solved).
+TARGETS = {
+    "libero_object": 0.98,
+    "libero_spatial": 0.95,
+    "libero_goal": 0.90,
+    "libero_10": 0.85,
+    "libero_90": 0.85,
+}
+TASK_FLOOR = 0.5
+
+
+@dataclass
+class TaskResult:
+    suite: str
+    index: int
+    name: str
+    episodes: int
+    successes: int
+    mean_length: float
+    seconds_per_episode: float
+    failures: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.episodes if self.episodes else 0.0
+
+
+def episode_seeds(seed: int, task_key: str, init_index: int) -> tuple[int, int]:
+    """(reset seed, expert seed) of one episode: stable across runs, machines and workers."""
+    ss = np.random.SeedSequence([seed, _stable_hash(task_key), init_index])
+    a, b = ss.generate_state(2)
+    return int(a), int(b)
+
+
+def _stable_hash(text: str) -> int:
+    import hashlib
+
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
+
+
+def evaluate_task(
+    task_ref: str,
+    inits: int,
+    *,
+    seed: int = 0,
+    config: ExpertConfig | None = None,
+    on_episode: Callable[[bool], None] | None = None,
+) -> TaskResult:
+    """Run the expert from the first ``inits`` stored init states of one task."""
+    from libero_data.experts.expert import Expert
+    from libero_data.sim import EnvConfig, LiberoEnv
+    from libero_data.tasks import get_task
+
+    task = get_task(task_ref)
+    states = task.init_states()[:inits]
+    failures: Counter[str] = Counter()
+    lengths: list[int] = []
+    successes = 0
+    start = time.perf_counter()
+    with LiberoEnv(task, EnvConfig(cameras=())) as env:
+        expert = Expert(env, config)
+        for i, state in enumerate(states):
+            reset_seed, expert_seed = episode_seeds(seed, task.id, i)
+            episode = expert.run(state, reset_seed=reset_seed, seed=expert_seed)
+            lengths.append(episode.length)
+            if episode.success:
+                successes += 1
+            else:
+                failures[_reason(episode.failure)] += 1
+            if on_episode is not None:
+                on_episode(episode.success)
+    elapsed = time.perf_counter() - start
+    return TaskResult(
+        suite=task.suite,
+        index=task.index,
+        name=task.name,
+        episodes=len(states),
+        successes=successes,
+        mean_length=float(np.mean(lengths)) if lengths else 0.0,
+        seconds_per_episode=elapsed / max(len(states), 1),
+        failures=dict(failures.most_common()),
+    )
+
+
+def _reason(text: str | None) -> str:
+    """Failure messages without object names, so they group."""
+    if not text:
+        return "unknown"
+    words = [w for w in text.split() if not any(ch.isdigit() for ch in w) and "_" not in w]
+    return " ".join(words)[:60] or text[:60]
+
+
+def _worker(args: tuple[str, int, int, ExpertConfig]) -> TaskResult:
+    import os
+
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    ref, inits, seed, config = args
+    return evaluate_task(ref, inits, seed=seed, config=config)
+
+
+def run_report(
+    task_refs: Iterable[str],
+    inits: int,
+    *,
+    seed: int = 0,
+    workers: int = 1,
+    config: ExpertConfig | None = None,
+    on_task: Callable[[TaskResult], None] | None = None,
+) -> list[TaskResult]:
+    """Evaluate many tasks, in ``workers`` processes; results in the order given."""
+    refs = list(task_refs)
+    config = config or ExpertConfig()
+    jobs = [(ref, inits, seed, config) for ref in refs]
+    results: dict[str, TaskResult] = {}
+    if workers <= 1:
+        for job in jobs:
+            result = _worker(job)
+            results[job[0]] = result
+            if on_task:
+                on_task(result)
+    else:
+        import multiprocessing as mp
+
+        with mp.get_context("spawn").Pool(workers, maxtasksperchild=4) as pool:
+            for ref, result in zip(refs, pool.imap(_worker, jobs), strict=True):
+                results[ref] = result
+                if on_task:
+                    on_task(result)
+    return [results[r] for r in refs]
+
+
+def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
+    """Per suite: episodes, successes, rate, target, and the lowest task rate."""
+    out: dict[str, dict[str, float]] = {}
+    for suite in dict.fromkeys(r.suite for r in results):
+        rows = [r for r in results if r.suite == suite]
+        episodes = sum(r.episodes for r in rows)
+        successes = sum(r.successes for r in rows)
+        out[suite] = {
+            "tasks": len(rows),
+            "episodes": episodes,
+            "successes": successes,
+            "rate": successes / episodes if episodes else 0.0,
+            "target": TARGETS.get(suite, float("nan")),
+            "lowest_task_rate": min(r.rate for r in rows),
+        }
+    return out
+
+
+def write_report(
+    results: list[TaskResult], out_dir: str | Path, *, meta: dict[str, str] | None = None
+) -> tuple[Path, Path]:
+    """Write ``expert_report.csv`` and ``expert_report.md`` into ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path, md_path = out / "expert_report.csv", out / "expert_report.md"
+    fields = [
+        "suite",
+        "index",
+        "name",
+        "episodes",
+        "successes",
+        "rate",
+        "mean_length",
+        "seconds_per_episode",
+        "failures",
+    ]
+    tmp = csv_path.with_suffix(".csv.tmp")
+    with tmp.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        for r in results:
+            row = asdict(r)
+            row["rate"] = f"{r.rate:.3f}"
+            row["mean_length"] = f"{r.mean_length:.1f}"
+            row["seconds_per_episode"] = f"{r.seconds_per_episode:.2f}"
+            row["failures"] = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
+            writer.writerow(row)
+    tmp.replace(csv_path)
+    lines = ["# Scripted expert: success over stored init states", ""]
+    for key, value in (meta or {}).items():
+        lines.append(f"- {key}: {value}")
+    if meta:
+        lines.append("")
+    lines += [
+        "| suite | tasks | episodes | success | target | lowest task |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for suite, s in summarise(results).items():
+        ok = "✓" if s["rate"] >= s["target"] and s["lowest_task_rate"] >= TASK_FLOOR else "✗"
+        lines.append(
+            f"| {suite} | {int(s['tasks'])} | {int(s['episodes'])} | {s['rate']:.1%} {ok} | {s['target']:.0%} | {s['lowest_task_rate']:.0%} |"
+        )
+    lines += ["", "| task | instruction | success | mean steps | failures |", "|---|---|---:|---:|---|"]
+    from libero_data.tasks.registry import language_from_name
+
+    for r in results:
+        fails = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
+        lines.append(
+            f"| {r.suite}/{r.index} | {language_from_name(r.name)} | {r.successes}/{r.episodes} | {r.mean_length:.0f} | {fails} |"
+        )
+    tmp = md_path.with_suffix(".md.tmp")
+    tmp.write_text("\n".join(lines) + "\n")
+    tmp.replace(md_path)
+    return csv_path, md_path

@@ -1,0 +1,124 @@
+"""What every skill shares: the registry, the context it runs in, and common motions."""
+
+from __future__ import annotations
+
+from collections.abc import Generator
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from libero_data.bddl import Problem
+from libero_data.experts.geometry import rotation_error, top_down, yaw_of_closing
+from libero_data.experts.motion import Actions, Motion
+from libero_data.experts.scene import SceneView
+from libero_data.registry import Registry
+
+
+class SkillFailed(RuntimeError):
+    """A skill could not do its job in this episode (the episode is discarded or retried)."""
+
+
+@dataclass
+class Context:
+    """Everything a skill may use: the scene, the motion generator, randomness, the task."""
+
+    scene: SceneView
+    motion: Motion
+    rng: np.random.Generator
+    problem: Problem
+    held: str | None = None  # the object in the gripper, if any
+    notes: dict[str, Any] = field(default_factory=dict)
+
+    # small shared helpers -------------------------------------------------------------------
+    def jitter(self, scale: float, size: int | None = None) -> Any:
+        return self.rng.uniform(-scale, scale, size)
+
+    def category(self, name: str) -> str:
+        try:
+            return self.problem.category_of(name)
+        except KeyError:
+            return ""
+
+    def parent_of(self, region: str) -> str:
+        """The object or fixture a region belongs to (``wooden_cabinet_1_top_region`` -> ``wooden_cabinet_1``)."""
+        for r in self.problem.regions:
+            if r.full_name == region:
+                return r.target
+        for e in self.problem.entities:
+            if region.startswith(e.name + "_"):
+                return e.name
+        return region
+
+    def is_entity(self, name: str) -> bool:
+        return any(e.name == name for e in self.problem.entities)
+
+    def current_top_down(self) -> np.ndarray:
+        return top_down(yaw_of_closing(self.scene.eef_mat()))
+
+    def table_height(self) -> float:
+        """Height of the surface the scene stands on."""
+        return float(self.notes.setdefault("table_height", _table_height(self)))
+
+    def clear_height(
+        self, xy_from: np.ndarray, xy_to: np.ndarray, exclude: tuple[str, ...], radius: float
+    ) -> float:
+        """Highest obstacle point within ``radius`` of the segment between two table points."""
+        pts = self.scene.obstacle_points(exclude=exclude)
+        a, b = np.asarray(xy_from[:2]), np.asarray(xy_to[:2])
+        ab = b - a
+        t = np.clip(((pts[:, :2] - a) @ ab) / max(float(ab @ ab), 1e-9), 0.0, 1.0)
+        closest = a + t[:, None] * ab
+        near = np.linalg.norm(pts[:, :2] - closest, axis=1) < radius
+        return float(pts[near, 2].max()) if near.any() else self.table_height()
+
+
+def _table_height(ctx: Context) -> float:
+    """The surface everything stands on: the lowest resting point of any movable object."""
+    bottoms = [float(ctx.scene.points(o.name)[:, 2].min()) for o in ctx.problem.objects]
+    return min(bottoms) if bottoms else 0.0
+
+
+class Skill:
+    """One reusable behaviour: a generator of actions, closed loop on privileged state.
+
+    Subclasses set ``name`` and implement :meth:`run`; ``args`` are BDDL names.
+    """
+
+    name: ClassVar[str] = ""
+
+    def __init__(self, *args: str) -> None:
+        self.args = args
+
+    def run(self, ctx: Context) -> Actions:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"{self.name}({', '.join(self.args)})"
+
+
+SKILLS: Registry[type[Skill]] = Registry("skill")
+
+
+def lift(ctx: Context, height: float, mat: np.ndarray | None = None, speed: float | None = None) -> Actions:
+    """Move straight up to ``height`` (grip-site z)."""
+    pos = ctx.scene.eef_pos()
+    pos[2] = max(pos[2], height)
+    return (yield from ctx.motion.move(pos, mat, speed=speed, tol=0.015, max_steps=60))
+
+
+def settle_orientation(ctx: Context, mat: np.ndarray, steps: int = 30) -> Actions:
+    """Turn the wrist in place until it matches ``mat``."""
+    pos = ctx.scene.eef_pos()
+    for _ in range(steps):
+        if np.linalg.norm(rotation_error(mat, ctx.scene.eef_mat())) < 0.05:
+            return True
+        yield from ctx.motion.move(pos, mat, max_steps=1)
+    return False
+
+
+def run_all(*gens: Generator[np.ndarray, None, Any]) -> Actions:
+    ok = True
+    for gen in gens:
+        ok = bool((yield from gen)) and ok
+    return ok

@@ -1,0 +1,101 @@
+"""Carrying a held object: clearance over obstacles, wrist turns, and setting it down."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from libero_data.experts.geometry import rot_z, rotation_error, yaw_of_closing
+from libero_data.experts.motion import OPEN, Actions
+from libero_data.experts.skills.base import Context, SkillFailed, lift
+
+MAX_EEF_HEIGHT_ABOVE_TABLE = 0.55
+
+
+def held_offset(ctx: Context) -> tuple[np.ndarray, float]:
+    """Object body position in the gripper frame, and how far its bottom hangs below the body."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    rel = scene.eef_mat().T @ (scene.pos(ctx.held) - scene.eef_pos())
+    pts = scene.points(ctx.held)
+    hang = float(scene.pos(ctx.held)[2] - pts[:, 2].min())
+    return rel, hang
+
+
+def footprint(ctx: Context, mat: np.ndarray) -> np.ndarray:
+    """The held object's xy outline relative to its body, after turning the gripper to ``mat``."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    pts = scene.points(ctx.held)
+    body = scene.pos(ctx.held)
+    turn = mat @ scene.eef_mat().T
+    rel = (pts - body) @ turn.T
+    return rel[:, :2]
+
+
+def best_turn(ctx: Context, base: np.ndarray, yaws: list[float]) -> np.ndarray:
+    """Of the wrist yaws, the gripper orientation that turns least from now."""
+    cur = ctx.scene.eef_mat()
+    options = [rot_z(y) @ base for y in yaws]
+    return min(options, key=lambda m: float(np.linalg.norm(rotation_error(m, cur))))
+
+
+def carry_to(
+    ctx: Context,
+    body_xy: np.ndarray,
+    bottom_z: float,
+    mat: np.ndarray | None = None,
+    *,
+    exclude: tuple[str, ...] = (),
+    above: float = 0.0,
+) -> Actions:
+    """Carry the held object until its body is over ``body_xy`` with its bottom at ``bottom_z``.
+
+    The object is raised over everything on the way (with a margin), turned to ``mat`` on
+    the way, and lowered straight down; ``above`` stops it that much higher.
+    """
+    assert ctx.held is not None
+    scene = ctx.scene
+    mat = scene.eef_mat() if mat is None else mat
+    rel, hang = held_offset(ctx)
+    eef_xy = np.asarray(body_xy[:2]) - (mat @ rel)[:2]
+    start = scene.eef_pos()
+    radius = float(np.linalg.norm(footprint(ctx, mat), axis=1).max()) + 0.04
+    obstacles = ctx.clear_height(start, eef_xy, (ctx.held, *exclude), radius)
+    body_above_bottom = hang
+    # grip-site height at which the object's bottom clears the obstacles
+    clear = obstacles + 0.04 + body_above_bottom - (mat @ rel)[2]
+    target_z = bottom_z + body_above_bottom - (mat @ rel)[2] + above
+    travel = max(clear, target_z + 0.05, start[2])
+    travel = min(travel, ctx.table_height() + MAX_EEF_HEIGHT_ABOVE_TABLE)
+    if start[2] < travel - 0.01:
+        yield from lift(ctx, travel, speed=0.3)
+    yield from ctx.motion.move(np.array([eef_xy[0], eef_xy[1], travel]), mat, tol=0.012, max_steps=160)
+    if not scene.grasped(ctx.held):
+        raise SkillFailed(f"dropped {ctx.held} while carrying it")
+    reached = yield from ctx.motion.move(
+        np.array([eef_xy[0], eef_xy[1], target_z]),
+        mat,
+        speed=0.12 + ctx.jitter(0.03),
+        tol=0.006,
+        max_steps=80,
+    )
+    return reached
+
+
+def release(ctx: Context, rise: float = 0.08) -> Actions:
+    """Open the gripper and move up out of the way."""
+    mat = ctx.scene.eef_mat()
+    yield from ctx.motion.set_gripper(OPEN, steps=8, mat=mat)
+    ctx.held = None
+    yield from lift(ctx, ctx.scene.eef_pos()[2] + rise + ctx.jitter(0.02), mat, speed=0.25)
+    return True
+
+
+def wrist_options(ctx: Context) -> list[float]:
+    """Yaw turns to consider when setting an object down (the wrist's range is limited)."""
+    del ctx
+    return [k * np.pi / 8 for k in range(-8, 9)]
+
+
+def yaw_now(ctx: Context) -> float:
+    return yaw_of_closing(ctx.scene.eef_mat())
