@@ -8,6 +8,7 @@ Markdown by :func:`write_report`.
 from __future__ import annotations
 
 import csv
+import logging
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -17,6 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from libero_data.experts.expert import ExpertConfig
+
+log = logging.getLogger(__name__)
 
 #: The success rates the expert is held to (share of stored init states solved).
 TARGETS = {
@@ -81,7 +84,14 @@ def evaluate_task(
         expert = Expert(env, config)
         for i, state in enumerate(states):
             reset_seed, expert_seed = episode_seeds(seed, task.id, i)
-            episode = expert.run(state, reset_seed=reset_seed, seed=expert_seed)
+            try:
+                episode = expert.run(state, reset_seed=reset_seed, seed=expert_seed)
+            except Exception as exc:  # a bug in one episode must not end the whole report
+                log.exception("expert crashed on %s init %d", task.id, i)
+                failures[f"error: {type(exc).__name__}"] += 1
+                if on_episode is not None:
+                    on_episode(False)
+                continue
             lengths.append(episode.length)
             if episode.success:
                 successes += 1

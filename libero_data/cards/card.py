@@ -1,0 +1,71 @@
+"""Rendering the dataset card from ``template.md`` (``string.Template`` placeholders)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from string import Template
+
+TEMPLATE = Path(__file__).with_name("template.md")
+
+
+@dataclass(frozen=True)
+class CardTask:
+    index: int
+    name: str
+    language: str
+    goal: str
+    episodes: int
+    attempts: int
+    successes: int
+
+    @property
+    def success_rate(self) -> float:
+        return self.successes / self.attempts if self.attempts else float("nan")
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def render_card(
+    *,
+    title: str,
+    summary: str,
+    suite: str,
+    repo_id: str,
+    load_path: str,
+    command: str,
+    tasks: list[CardTask],
+    frames: int,
+    fps: int,
+    image_size: int,
+    sim_state_width: int,
+    settings: dict[str, str],
+    start_note: str,
+    expert_note: str = "",
+) -> str:
+    """The card text; every number comes from the caller (nothing is guessed here)."""
+    rows = []
+    for t in tasks:
+        rate = f"{t.success_rate:.0%} ({t.successes}/{t.attempts})" if t.attempts else "–"
+        rows.append(f"| {t.index} | `{t.name}` | {_cell(t.language)} | `{_cell(t.goal)}` | {t.episodes} | {rate} |")
+    settings_rows = "\n".join(f"| {_cell(k)} | {_cell(str(v))} |" for k, v in settings.items())
+    return Template(TEMPLATE.read_text()).substitute(
+        title=title,
+        summary=summary,
+        suite_tag=suite.replace("/", "-"),
+        repo_id=repo_id,
+        load_path=load_path,
+        command=command,
+        episodes=sum(t.episodes for t in tasks),
+        frames=frames,
+        fps=fps,
+        tasks=len(tasks),
+        image_size=image_size,
+        task_rows="\n".join(rows),
+        sim_state_width=sim_state_width,
+        settings_rows=settings_rows,
+        start_note=start_note,
+        expert_note=expert_note,
+    )

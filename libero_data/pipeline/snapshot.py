@@ -1,0 +1,74 @@
+"""Building a complete dataset snapshot from finished episode shards.
+
+The shards (one LeRobot dataset per episode, see :mod:`libero_data.record.shard`) are
+joined with lerobot's own ``aggregate_datasets``, keeping one data and video file per
+episode; the MCAP logs, our per-episode metadata, the tasks' BDDL files and the card are
+added, and every entry is stamped with the snapshot's id for :mod:`publish`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+from libero_data.pipeline.publish import stamp
+from libero_data.record.shard import INFO_NAME, MCAP_NAME, SHARD_REPO
+
+EPISODES_META = "libero_episodes.jsonl"
+DATASET_META = "libero.json"
+
+
+def build_snapshot(
+    shards: list[Path],
+    out: Path,
+    *,
+    repo_id: str,
+    snapshot_id: str,
+    dataset_meta: dict[str, Any],
+    bddl: dict[str, str],
+    card: str,
+) -> list[dict[str, Any]]:
+    """Write a snapshot of ``shards`` (in order) into ``out``; returns the episodes' metadata."""
+    from lerobot.datasets.aggregate import aggregate_datasets
+
+    if out.exists():
+        shutil.rmtree(out)
+    if not shards:
+        raise ValueError("a snapshot needs at least one episode")
+    with contextlib.redirect_stderr(io.StringIO()):  # aggregate_datasets draws progress bars
+        aggregate_datasets(
+            [SHARD_REPO] * len(shards),
+            repo_id,
+            roots=list(shards),
+            aggr_root=out,
+            concatenate_videos=False,
+            concatenate_data=False,
+        )
+    (out / "mcap").mkdir()
+    episodes = []
+    for index, shard in enumerate(shards):
+        info = json.loads((shard / INFO_NAME).read_text())
+        info["episode_index"] = index
+        episodes.append(info)
+        _link(shard / MCAP_NAME, out / "mcap" / f"episode_{index:06d}.mcap")
+    meta = out / "meta"
+    (meta / EPISODES_META).write_text("".join(json.dumps(e, sort_keys=True) + "\n" for e in episodes))
+    (meta / DATASET_META).write_text(json.dumps(dataset_meta, indent=2, sort_keys=True) + "\n")
+    (meta / "bddl").mkdir()
+    for name, text in bddl.items():
+        (meta / "bddl" / f"{name}.bddl").write_text(text)
+    (out / "README.md").write_text(card)
+    stamp(out, snapshot_id)
+    return episodes
+
+
+def _link(src: Path, dst: Path) -> None:
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)

@@ -1,0 +1,75 @@
+"""Feature keys and shapes of libero-data datasets (LeRobot's LIBERO naming).
+
+``observation.images.image`` is LIBERO's agentview camera and
+``observation.images.wrist_image`` the eye-in-hand camera, both stored upright.
+``observation.state`` is the 8-D state policies usually read (eef position, eef axis-angle,
+gripper finger positions), ``action`` the 7-D OSC delta pose + gripper command.
+The flattened MuJoCo state of every frame is stored padded to the dataset's widest task,
+with its true width beside it, so any frame can be restored exactly.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+OBS_IMAGE = "observation.images.image"
+OBS_WRIST_IMAGE = "observation.images.wrist_image"
+OBS_STATE = "observation.state"
+OBS_JOINTS = "observation.joint_positions"
+OBS_GRIPPER = "observation.gripper_state"
+OBS_EEF_POSE = "observation.eef_pose"
+OBS_SIM_STATE = "observation.sim_state"
+OBS_SIM_STATE_DIM = "observation.sim_state_dim"
+ACTION = "action"
+
+#: our camera names -> dataset keys
+CAMERA_KEYS = {"agentview": OBS_IMAGE, "eye_in_hand": OBS_WRIST_IMAGE}
+
+STATE_NAMES = ["eef_x", "eef_y", "eef_z", "eef_ax", "eef_ay", "eef_az", "gripper_left", "gripper_right"]
+ACTION_NAMES = ["dx", "dy", "dz", "drx", "dry", "drz", "gripper"]
+JOINT_NAMES = [f"joint_{i}" for i in range(1, 8)]
+EEF_POSE_NAMES = ["x", "y", "z", "qx", "qy", "qz", "qw"]
+
+
+def dataset_features(image_size: int, sim_state_width: int, *, use_videos: bool = True) -> dict[str, dict[str, Any]]:
+    """The LeRobot feature spec of a dataset with square images of ``image_size`` pixels."""
+    image = {
+        "dtype": "video" if use_videos else "image",
+        "shape": (image_size, image_size, 3),
+        "names": ["height", "width", "channel"],
+    }
+    return {
+        OBS_IMAGE: dict(image),
+        OBS_WRIST_IMAGE: dict(image),
+        OBS_STATE: {"dtype": "float32", "shape": (8,), "names": STATE_NAMES},
+        OBS_JOINTS: {"dtype": "float32", "shape": (7,), "names": JOINT_NAMES},
+        OBS_GRIPPER: {"dtype": "float32", "shape": (2,), "names": ["left", "right"]},
+        OBS_EEF_POSE: {"dtype": "float32", "shape": (7,), "names": EEF_POSE_NAMES},
+        OBS_SIM_STATE: {"dtype": "float64", "shape": (sim_state_width,), "names": None},
+        OBS_SIM_STATE_DIM: {"dtype": "int64", "shape": (1,), "names": None},
+        ACTION: {"dtype": "float32", "shape": (7,), "names": ACTION_NAMES},
+    }
+
+
+def frame_from_observation(obs: dict[str, Any], action: np.ndarray, sim_state_width: int) -> dict[str, Any]:
+    """One LeRobot frame (without ``task``) from a :class:`~libero_data.sim.LiberoEnv` observation."""
+    state = np.asarray(obs["sim_state"], dtype=np.float64)
+    if state.shape[0] > sim_state_width:
+        raise ValueError(f"MuJoCo state has {state.shape[0]} values, more than the dataset's {sim_state_width}")
+    padded = np.zeros(sim_state_width, dtype=np.float64)
+    padded[: state.shape[0]] = state
+    frame: dict[str, Any] = {
+        OBS_STATE: np.asarray(obs["state"], dtype=np.float32),
+        OBS_JOINTS: np.asarray(obs["joint_pos"], dtype=np.float32),
+        OBS_GRIPPER: np.asarray(obs["gripper_state"], dtype=np.float32),
+        OBS_EEF_POSE: np.concatenate([obs["eef_pos"], obs["eef_quat"]]).astype(np.float32),
+        OBS_SIM_STATE: padded,
+        OBS_SIM_STATE_DIM: np.array([state.shape[0]], dtype=np.int64),
+        ACTION: np.asarray(action, dtype=np.float32),
+    }
+    for camera, key in CAMERA_KEYS.items():
+        if camera in obs:
+            frame[key] = obs[camera]
+    return frame

@@ -1,0 +1,105 @@
+"""Rendering one searched episode and writing it as a one-episode LeRobot dataset + MCAP.
+
+An episode is searched without cameras; its states are then restored one by one and both
+cameras rendered (the only expensive part). The shard is built in a temporary folder and
+renamed into place, so a shard folder on disk is always complete.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from libero_data.record.features import dataset_features, frame_from_observation
+from libero_data.record.mcap_log import write_episode_mcap
+
+if TYPE_CHECKING:
+    from libero_data.sim import LiberoEnv
+
+FPS = 20
+SHARD_REPO = "libero-data/shard"
+MCAP_NAME = "episode.mcap"
+INFO_NAME = "episode.json"
+
+
+def render_frames(env: LiberoEnv, states: np.ndarray, actions: np.ndarray, final_state: np.ndarray) -> tuple[list[dict[str, Any]], list[bool]]:
+    """Observations (with images) of every stored state, and success after each action."""
+    frames: list[dict[str, Any]] = []
+    holds: list[bool] = []
+    for state, action in zip(states, actions, strict=True):
+        env.set_state(state)
+        obs = env.observe(render=True)
+        obs["action"] = np.asarray(action, dtype=np.float32)
+        frames.append(obs)
+        holds.append(env.success())
+    env.set_state(final_state)
+    holds.append(env.success())
+    return frames, holds[1:]
+
+
+def write_shard(
+    out_dir: str | Path,
+    *,
+    env: LiberoEnv,
+    states: np.ndarray,
+    actions: np.ndarray,
+    final_state: np.ndarray,
+    task: str,
+    instruction: str,
+    image_size: int,
+    sim_state_width: int,
+    info: dict[str, Any],
+) -> Path:
+    """Render and write one episode into ``out_dir`` (created atomically)."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out = Path(out_dir)
+    tmp = out.with_name(out.name + ".tmp")
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    frames, success = render_frames(env, states, actions, final_state)
+    dataset = LeRobotDataset.create(
+        SHARD_REPO,
+        fps=FPS,
+        features=dataset_features(image_size, sim_state_width),
+        root=tmp,
+        robot_type="panda",
+        use_videos=True,
+    )
+    for obs in frames:
+        frame = frame_from_observation(obs, obs["action"], sim_state_width)
+        frame["task"] = instruction
+        dataset.add_frame(frame)
+    dataset.save_episode(parallel_encoding=False)
+    dataset.finalize()
+    write_episode_mcap(
+        tmp / MCAP_NAME,
+        frames=frames,
+        task=task,
+        instruction=instruction,
+        success=success,
+        fps=FPS,
+        metadata={k: json.dumps(v) for k, v in info.items()},
+    )
+    (tmp / INFO_NAME).write_text(json.dumps({**info, "length": len(frames)}, sort_keys=True))
+    _fsync_tree(tmp)
+    if out.exists():
+        shutil.rmtree(out)
+    tmp.rename(out)
+    return out
+
+
+def _fsync_tree(root: Path) -> None:
+    """Flush a freshly written folder to disk before it is renamed into place."""
+    for path in sorted(root.rglob("*")):
+        if path.is_file():
+            fd = os.open(path, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
