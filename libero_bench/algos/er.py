@@ -1,0 +1,160 @@
+"""ER: experience replay from a small memory of past tasks' training windows.
+
+The memory holds at most ``memory_size`` windows in total (1000 in the paper), split evenly
+across the tasks learned so far: after task k each past task keeps ``memory_size // (k+1)``
+windows, a uniform random sample of its data (reservoir sampling over one pass of the
+task's batches; older tasks shrink to a random subset of what they kept). Every training
+step on a later task draws a replay batch of past windows, concatenates it to the current
+batch and takes the behaviour-cloning loss over both, as LIBERO does.
+
+Images are stored as uint8 (they come from 8-bit frames; the rounding is below 1/510) so
+1000 windows of two 128x128 cameras fit in about 1 GB.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from libero_bench.algos.base import ALGOS, Algo, AlgoConfig, Batch, DataloaderFactory
+from libero_bench.batch_keys import IMAGE_KEYS
+
+logger = logging.getLogger(__name__)
+
+Memory = dict[str, Tensor]
+
+
+def _encode(key: str, value: Tensor, quantise: bool) -> Tensor:
+    value = value.detach().cpu()
+    if quantise and key in IMAGE_KEYS and value.is_floating_point():
+        return (value.clamp(0, 1) * 255.0).round().to(torch.uint8)
+    return value.clone()
+
+
+def _decode(key: str, value: Tensor) -> Tensor:
+    if key in IMAGE_KEYS and value.dtype == torch.uint8:
+        return value.float() / 255.0
+    return value
+
+
+@dataclass(frozen=True)
+class ERConfig(AlgoConfig):
+    name: ClassVar[str] = "er"
+
+    memory_size: int = 1000
+    replay_batch_size: int | None = None  # None: the size of the current batch
+    quantise_images: bool = True
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.memory_size <= 0:
+            self._fail("memory_size", "must be positive")
+        if self.replay_batch_size is not None and self.replay_batch_size <= 0:
+            self._fail("replay_batch_size", "must be positive or None")
+
+    @classmethod
+    def smoke(cls) -> ERConfig:
+        return cls(memory_size=64)
+
+
+@ALGOS.register("er")
+class ER(Algo):
+    config_class = ERConfig
+    config: ERConfig
+
+    def __init__(self, config: ERConfig | None = None) -> None:
+        super().__init__(config)
+        self.memories: dict[int, Memory] = {}
+        self.rng = np.random.default_rng(self.config.seed)
+
+    # -- memory ---------------------------------------------------------------------------
+    def memory_count(self) -> int:
+        """Windows held over all past tasks."""
+        return sum(_length(m) for m in self.memories.values())
+
+    def _fill(self, dataloader_factory: DataloaderFactory, capacity: int) -> Memory:
+        """Reservoir-sample ``capacity`` windows from one pass over the batches."""
+        slots: list[dict[str, Tensor]] = []
+        seen = 0
+        quantise = self.config.quantise_images
+        for batch in dataloader_factory():
+            for row in range(_length(batch)):
+                if seen < capacity:
+                    slots.append({k: _encode(k, v[row], quantise) for k, v in batch.items()})
+                else:
+                    j = int(self.rng.integers(0, seen + 1))
+                    if j < capacity:
+                        slots[j] = {k: _encode(k, v[row], quantise) for k, v in batch.items()}
+                seen += 1
+        if not slots:
+            raise ValueError("ER.end_task: the dataloader gave no windows")
+        return {k: torch.stack([slot[k] for slot in slots]) for k in slots[0]}
+
+    def end_task(self, task_index: int, dataloader_factory: DataloaderFactory) -> None:
+        super().end_task(task_index, dataloader_factory)
+        share = self.config.memory_size // (len(self.memories) + 1)
+        if share == 0:
+            logger.warning("ER memory of %d cannot hold task %d", self.config.memory_size, task_index)
+            return
+        for past, memory in self.memories.items():
+            n = _length(memory)
+            if n > share:
+                keep = torch.from_numpy(np.sort(self.rng.choice(n, size=share, replace=False)))
+                self.memories[past] = {k: v[keep] for k, v in memory.items()}
+        self.memories[task_index] = self._fill(dataloader_factory, share)
+        logger.info("ER memory: %d windows over %d tasks", self.memory_count(), len(self.memories))
+
+    def replay_batch(self, size: int, device: torch.device) -> dict[str, Tensor]:
+        """``size`` windows drawn uniformly (with replacement) from the whole memory."""
+        memories = list(self.memories.values())
+        lengths = np.array([_length(m) for m in memories])
+        picks = self.rng.integers(0, lengths.sum(), size=size)
+        offsets = np.concatenate([[0], np.cumsum(lengths)])
+        parts: list[dict[str, Tensor]] = []
+        for i, memory in enumerate(memories):
+            rows = picks[(picks >= offsets[i]) & (picks < offsets[i + 1])] - offsets[i]
+            if rows.size:
+                index = torch.from_numpy(rows)
+                parts.append({k: v[index] for k, v in memory.items()})
+        keys = parts[0].keys()
+        return {k: _decode(k, torch.cat([p[k] for p in parts])).to(device) for k in keys}
+
+    # -- training ---------------------------------------------------------------------------
+    def loss(self, batch: Batch) -> dict[str, Tensor]:
+        if not self.memories:
+            return super().loss(batch)
+        current = dict(batch)
+        size = self.config.replay_batch_size or _length(current)
+        device = next(iter(current.values())).device
+        replay = self.replay_batch(size, device)
+        missing = [k for k in replay if k not in current] + [k for k in current if k not in replay]
+        if missing:
+            raise ValueError(
+                f"ER: current and replayed batches differ in key(s) {', '.join(sorted(set(missing)))}"
+            )
+        merged = {k: torch.cat([current[k], replay[k].to(current[k].dtype)]) for k in current}
+        return {"bc": self.policy.loss(merged)}
+
+    # -- checkpoints ------------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            **super().state_dict(),
+            "memories": {k: dict(m) for k, m in self.memories.items()},
+            "rng": self.rng.bit_generator.state,
+        }
+
+    def load_state_dict(self, state: Mapping[str, Any]) -> None:
+        super().load_state_dict(state)
+        self.memories = {int(k): dict(m) for k, m in state["memories"].items()}
+        self.rng = np.random.default_rng()
+        self.rng.bit_generator.state = state["rng"]
+
+
+def _length(memory: Mapping[str, Tensor]) -> int:
+    return int(next(iter(memory.values())).shape[0]) if memory else 0

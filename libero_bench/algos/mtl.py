@@ -1,0 +1,23 @@
+"""MTL: multitask learning, the upper-bound baseline trained on all tasks' data at once."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from libero_bench.algos.base import ALGOS, Algo, AlgoConfig
+
+
+@dataclass(frozen=True)
+class MTLConfig(AlgoConfig):
+    name: ClassVar[str] = "mtl"
+
+
+@ALGOS.register("mtl")
+class MTL(Algo):
+    """``needs_all_tasks``: the trainer calls ``start_task(0, policy)`` once, trains on the
+    union of every task's data (batches mixing tasks) and calls ``end_task(0, ...)``; its
+    learning curve is evaluated on all tasks."""
+
+    config_class = MTLConfig
+    needs_all_tasks = True

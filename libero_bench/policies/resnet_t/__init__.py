@@ -1,0 +1,1 @@
+"""Policy package: see config.py and model.py."""

@@ -1,0 +1,127 @@
+"""Training presets as data: ``paper`` (LIBERO's protocol) and ``smoke`` (a 2-task run on
+two CPU cores in a few minutes). Saved as JSON beside every run via ``to_dict``.
+
+Values of ``paper`` come from the paper and the upstream ``libero/configs`` (train/default,
+optimizer/adam_w, scheduler/cosine_annealing, eval/default, data/default).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Self
+
+from libero_data.registry import Registry
+
+
+@dataclass(frozen=True)
+class TrainPreset:
+    """How a lifelong run trains and evaluates (the same for every task)."""
+
+    name: str
+    epochs: int = 50
+    batch_size: int = 32
+    optimizer: str = "adamw"
+    lr: float = 1e-4
+    betas: tuple[float, float] = (0.9, 0.999)
+    weight_decay: float = 1e-4
+    scheduler: str = "cosine"  # cosine annealing from lr to lr_min over the task's epochs
+    lr_min: float = 1e-5
+    grad_clip: float = 100.0
+    window: int = 10
+    image_size: int = 128
+    policy_size: str = "paper"
+    algo_size: str = "paper"
+    language_encoder: str = "minilm"
+    eval_every: int = 5  # epochs; epoch 0 (before training) is evaluated too
+    eval_rollouts: int = 20
+    eval_max_steps: int = 600
+    keep_best: bool = True  # keep the checkpoint with the best success while learning a task
+    demos_per_task: int | None = None  # None: all demonstrations of the task
+    seed: int = 10000
+
+    def __post_init__(self) -> None:
+        for field in (
+            "epochs",
+            "batch_size",
+            "window",
+            "image_size",
+            "eval_every",
+            "eval_rollouts",
+            "eval_max_steps",
+        ):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+                self._fail(field, "must be a positive integer")
+        if self.demos_per_task is not None and self.demos_per_task <= 0:
+            self._fail("demos_per_task", "must be positive or None")
+        if not 0 < self.lr_min <= self.lr:
+            self._fail("lr_min", f"must be in (0, lr = {self.lr}]")
+        if self.weight_decay < 0:
+            self._fail("weight_decay", "must be >= 0")
+        if self.grad_clip <= 0:
+            self._fail("grad_clip", "must be > 0")
+        if len(self.betas) != 2 or not all(0.0 <= b < 1.0 for b in self.betas):
+            self._fail("betas", "must be two numbers in [0, 1)")
+        if self.optimizer != "adamw":
+            self._fail("optimizer", "must be 'adamw'")
+        if self.scheduler not in ("cosine", "none"):
+            self._fail("scheduler", "must be 'cosine' or 'none'")
+        if self.policy_size not in ("paper", "smoke"):
+            self._fail("policy_size", "must be 'paper' or 'smoke'")
+        if self.algo_size not in ("paper", "smoke"):
+            self._fail("algo_size", "must be 'paper' or 'smoke'")
+
+    def _fail(self, field: str, message: str) -> None:
+        raise ValueError(f"TrainPreset.{field} {message}, got {getattr(self, field)!r}")
+
+    def eval_epochs(self) -> list[int]:
+        """Epochs evaluated while learning a task: 0, eval_every, ..., up to ``epochs``."""
+        return list(range(0, self.epochs + 1, self.eval_every))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable (tuples become lists)."""
+        return {
+            f.name: list(v) if isinstance(v := getattr(self, f.name), tuple) else v
+            for f in dataclasses.fields(self)
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Self:
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"TrainPreset has no field(s) {', '.join(unknown)}")
+        kwargs: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+        return cls(**kwargs)
+
+    def replace(self, **changes: Any) -> Self:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+
+PAPER = TrainPreset(name="paper")
+
+SMOKE = TrainPreset(
+    name="smoke",
+    epochs=2,
+    batch_size=8,
+    window=10,
+    image_size=128,
+    policy_size="smoke",
+    algo_size="smoke",
+    eval_every=1,
+    eval_rollouts=2,
+    eval_max_steps=60,
+    demos_per_task=2,
+    seed=0,
+)
+
+PRESETS: Registry[TrainPreset] = Registry("training preset")
+PRESETS.register("paper")(PAPER)
+PRESETS.register("smoke")(SMOKE)
+
+
+def get_preset(name: str) -> TrainPreset:
+    """``paper`` or ``smoke``."""
+    return PRESETS.get(name)

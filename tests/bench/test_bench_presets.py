@@ -1,0 +1,57 @@
+"""Training presets are validated data that survive a JSON round trip."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from libero_bench.presets import PAPER, PRESETS, SMOKE, TrainPreset, get_preset
+
+
+def test_paper_preset_matches_the_libero_protocol() -> None:
+    p = get_preset("paper")
+    assert p is PAPER
+    assert (p.epochs, p.batch_size, p.window) == (50, 32, 10)
+    assert (p.optimizer, p.lr, p.lr_min, p.weight_decay, p.scheduler) == ("adamw", 1e-4, 1e-5, 1e-4, "cosine")
+    assert (p.eval_every, p.eval_rollouts, p.eval_max_steps, p.keep_best) == (5, 20, 600, True)
+    assert p.eval_epochs() == [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50]
+    assert p.image_size == 128 and p.policy_size == "paper"
+
+
+def test_smoke_preset_is_small() -> None:
+    s = get_preset("smoke")
+    assert s is SMOKE
+    assert s.epochs <= 2 and s.eval_rollouts <= 2 and s.eval_max_steps <= 60 and s.eval_every == 1
+    assert s.policy_size == "smoke" and s.algo_size == "smoke"
+    assert PRESETS.names() == ["paper", "smoke"]
+
+
+@pytest.mark.parametrize("name", ["paper", "smoke"])
+def test_json_round_trip(name: str) -> None:
+    preset = get_preset(name)
+    text = json.dumps(preset.to_dict())
+    assert TrainPreset.from_dict(json.loads(text)) == preset
+
+
+def test_invalid_fields_are_named() -> None:
+    with pytest.raises(ValueError, match=r"TrainPreset\.epochs"):
+        PAPER.replace(epochs=0)
+    with pytest.raises(ValueError, match=r"TrainPreset\.lr_min"):
+        PAPER.replace(lr_min=1e-3)
+    with pytest.raises(ValueError, match="no field"):
+        TrainPreset.from_dict({"name": "x", "epoch": 3})
+
+
+def test_light_modules_do_not_import_torch() -> None:
+    code = (
+        "import sys, libero_bench.metrics, libero_bench.presets, libero_bench.language;"
+        "print('torch' in sys.modules)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=os.environ
+    )
+    assert out.stdout.strip() == "False"
