@@ -44,7 +44,7 @@ def user_errors[F: Callable[..., Any]](fn: F) -> F:
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             return fn(*args, **kwargs)
-        except (BDDLError, TaskLookupError, FileNotFoundError, ValueError) as exc:
+        except (BDDLError, TaskLookupError, FileNotFoundError, NotADirectoryError, ValueError) as exc:
             raise fail(str(exc)) from None
         except KeyboardInterrupt:
             raise fail("interrupted", code=130) from None
@@ -133,6 +133,269 @@ def show_cmd(
         console.print(resolved.bddl_path.read_text(), markup=False)
     console.print(f"task: {resolved.id}  {resolved.language}", markup=False)
     console.print(f"wrote {path} (agentview | eye-in-hand, {size}x{size} each)", markup=False)
+
+
+@app.command("generate")
+@user_errors
+def generate_cmd(
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", help="Dataset folder to create (or to continue, after an interruption)."),
+    ],
+    suite: Annotated[
+        str, typer.Option("--suite", "-s", help="Suite name (libero_object, ...) or a suite folder.")
+    ] = "libero_object",
+    tasks: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--tasks",
+            "-t",
+            help="Task indices or names within the suite (repeat or comma-separate); default: all.",
+        ),
+    ] = None,
+    episodes_per_task: Annotated[
+        int,
+        typer.Option(
+            "--episodes-per-task",
+            "-n",
+            help="Successful episodes to keep per task; the first 50 start from LIBERO's stored init states.",
+            min=1,
+        ),
+    ] = 50,
+    image_size: Annotated[
+        int, typer.Option("--image-size", help="Camera image size in pixels (square).", min=32, max=512)
+    ] = 128,
+    workers: Annotated[
+        int,
+        typer.Option("--workers", "-w", help="Parallel worker processes (simulation and rendering).", min=1),
+    ] = 1,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of everything random; same seed, same dataset.")
+    ] = 0,
+    max_attempts: Annotated[
+        int,
+        typer.Option(
+            "--max-attempts", help="Expert attempts per episode before the episode is given up.", min=1
+        ),
+    ] = 8,
+    repo_id: Annotated[
+        str | None,
+        typer.Option("--repo-id", help="Dataset id recorded in the metadata; default libero-data/<suite>."),
+    ] = None,
+    publish_every: Annotated[
+        float,
+        typer.Option(
+            "--publish-every", help="Seconds between snapshots of the growing dataset in --out.", min=0.0
+        ),
+    ] = 60.0,
+) -> None:
+    """Generate scripted demonstrations as a LeRobot v3 dataset, with MCAP logs and a dataset card.
+
+    Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
+    """
+    import os
+    import shlex
+    import time
+
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from libero_data.pipeline.generate import generate, resolve_request
+
+    os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
+    task_refs = [part for item in (tasks or []) for part in item.split(",") if part]
+    request = resolve_request(
+        suite,
+        task_refs or None,
+        episodes_per_task=episodes_per_task,
+        image_size=image_size,
+        seed=seed,
+        max_attempts=max_attempts,
+        repo_id=repo_id,
+    )
+    command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    console = _console()
+    console.print(
+        f"generating {len(request.tasks)} task(s) × {request.episodes_per_task} episode(s) of {suite} into {out} "
+        f"with {workers} worker(s)",
+        markup=False,
+    )
+    columns = [
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn(
+            "failed {task.fields[failed]} · attempts {task.fields[attempts]} · published {task.fields[published]}"
+        ),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+    ]
+    start = time.monotonic()
+    with Progress(*columns, console=_console(stderr=True), transient=False) as bar:
+        job = bar.add_task(
+            "episodes",
+            total=len(request.tasks) * request.episodes_per_task,
+            failed=0,
+            attempts=0,
+            published=0,
+        )
+
+        def show(p: Any) -> None:
+            bar.update(
+                job, completed=p.done + p.failed, failed=p.failed, attempts=p.attempts, published=p.published
+            )
+
+        try:
+            result = generate(
+                request, out, workers=workers, on_progress=show, command=command, publish_every=publish_every
+            )
+        except KeyboardInterrupt:
+            raise fail(
+                f"interrupted; finished episodes are kept in {out}, run the same command to continue",
+                code=130,
+            ) from None
+    minutes = (time.monotonic() - start) / 60
+    console.print(
+        f"done: {result.published} episodes in {out} ({result.failed} given up after {request.max_attempts} attempts; "
+        f"{minutes:.1f} min)",
+        markup=False,
+    )
+    console.print("load it with:", markup=False)
+    console.print(f'  datasets.load_dataset("{out}", split="train")', markup=False)
+    console.print(f'  LeRobotDataset("{request.repo_id}", root="{out}")', markup=False)
+
+
+@app.command("validate")
+@user_errors
+def validate_cmd(
+    dataset: Annotated[Path, typer.Argument(help="Dataset folder.")],
+    resimulate: Annotated[
+        int,
+        typer.Option(
+            "--resimulate",
+            help="Re-simulate this many episodes (spread over the dataset) and check they still succeed.",
+            min=0,
+        ),
+    ] = 0,
+) -> None:
+    """Check a dataset: metadata against files, frame counts of parquet and video, MCAP logs; optionally re-simulate."""
+    from libero_data.pipeline.validate import validate
+
+    console = _console()
+    with console.status("validating") as status:
+        report = validate(dataset, resimulate=resimulate, on_step=lambda s: status.update(s))
+    console.print(f"{dataset}: {report.episodes} episodes, {report.frames} frames", markup=False)
+    if resimulate:
+        console.print(
+            f"re-simulated {report.resimulated} episode(s): {report.resimulated_ok} reached their goal",
+            markup=False,
+        )
+    if report.ok:
+        console.print("ok: no inconsistency found", markup=False)
+        return
+    for issue in report.issues or []:
+        _console(stderr=True).print(f"problem: {issue}", markup=False, soft_wrap=True)
+    raise fail(f"{len(report.issues or [])} problem(s) found in {dataset}", code=1)
+
+
+@app.command("replay")
+@user_errors
+def replay_cmd(
+    dataset: Annotated[Path, typer.Argument(help="Dataset folder.")],
+    episode: Annotated[int, typer.Option("--episode", "-e", help="Episode index.", min=0)] = 0,
+    rrd: Annotated[
+        Path | None,
+        typer.Option(
+            "--rrd", help="Write the Rerun recording here; default: episode_<K>.rrd in the current folder."
+        ),
+    ] = None,
+) -> None:
+    """Save a stored episode as a Rerun recording (both cameras, state, action, language)."""
+    from libero_data.pipeline.replay import episode_to_rrd
+
+    if not (dataset / "meta" / "info.json").is_file():
+        raise FileNotFoundError(f"{dataset} is not a dataset folder (meta/info.json is missing)")
+    target = rrd or Path(f"episode_{episode}.rrd")
+    with _console().status("writing the recording"):
+        path = episode_to_rrd(dataset, episode, target)
+    _console().print(f"wrote {path}; open it with: rerun {path}", markup=False)
+
+
+@app.command("expert-report")
+@user_errors
+def expert_report_cmd(
+    suite: Annotated[
+        list[str] | None, typer.Option("--suite", "-s", help="Suite(s) to measure; default: the five suites.")
+    ] = None,
+    inits: Annotated[
+        int, typer.Option("--inits", help="Stored init states per task (the first N).", min=1, max=50)
+    ] = 50,
+    workers: Annotated[int, typer.Option("--workers", "-w", help="Parallel worker processes.", min=1)] = 1,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of the expert's styles and fixture placement.")
+    ] = 0,
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Folder for expert_report.csv and expert_report.md.")
+    ] = Path("."),
+) -> None:
+    """Measure the scripted expert's success rate per task over its stored init states."""
+    import time
+
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from libero_data.experts.report import run_report, summarise, write_report
+    from libero_data.pipeline.generate import versions
+    from libero_data.tasks import SUITE_NAMES, get_suite
+
+    names = [n for item in (suite or list(SUITE_NAMES[:5])) for n in item.split(",") if n]
+    refs = [t.id for name in names for t in get_suite(name).tasks]
+    start = time.monotonic()
+    columns = [
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[last]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+    ]
+    with Progress(*columns, console=_console(stderr=True)) as bar:
+        job = bar.add_task("tasks", total=len(refs), last="")
+        results = run_report(
+            refs,
+            inits,
+            seed=seed,
+            workers=workers,
+            on_task=lambda r: bar.update(
+                job, advance=1, last=f"{r.suite}/{r.index}: {r.successes}/{r.episodes}"
+            ),
+        )
+    meta = {
+        "inits per task": str(inits),
+        "seed": str(seed),
+        "minutes": f"{(time.monotonic() - start) / 60:.1f}",
+    }
+    meta.update({f"version {k}": v for k, v in versions().items()})
+    csv_path, md_path = write_report(results, out, meta=meta)
+    console = _console()
+    for name, s in summarise(results).items():
+        console.print(
+            f"{name}: {s['rate']:.1%} of {int(s['episodes'])} (target {s['target']:.0%}), lowest task {s['lowest_task_rate']:.0%}",
+            markup=False,
+        )
+    console.print(f"wrote {csv_path} and {md_path}", markup=False)
 
 
 def main() -> None:

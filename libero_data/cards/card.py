@@ -49,7 +49,9 @@ def render_card(
     rows = []
     for t in tasks:
         rate = f"{t.success_rate:.0%} ({t.successes}/{t.attempts})" if t.attempts else "–"
-        rows.append(f"| {t.index} | `{t.name}` | {_cell(t.language)} | `{_cell(t.goal)}` | {t.episodes} | {rate} |")
+        rows.append(
+            f"| {t.index} | `{t.name}` | {_cell(t.language)} | `{_cell(t.goal)}` | {t.episodes} | {rate} |"
+        )
     settings_rows = "\n".join(f"| {_cell(k)} | {_cell(str(v))} |" for k, v in settings.items())
     return Template(TEMPLATE.read_text()).substitute(
         title=title,

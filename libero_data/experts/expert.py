@@ -208,4 +208,9 @@ def _region_joints(env: LiberoEnv, name: str) -> list[str]:
         site = env.raw.object_sites_dict.get(name)
         return list(getattr(site, "joints", None) or [])
     obj = env.raw.get_object(name)
-    return [j for j in (getattr(obj, "joints", None) or []) if j in env.sim.model.joint_names]
+    model = env.sim.model
+    hinged = []
+    for joint in getattr(obj, "joints", None) or []:
+        if joint in model.joint_names and int(model.jnt_type[model.joint_name2id(joint)]) in (2, 3):
+            hinged.append(joint)  # slide or hinge: a drawer, door or knob (not a free joint)
+    return hinged

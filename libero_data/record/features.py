@@ -33,7 +33,9 @@ JOINT_NAMES = [f"joint_{i}" for i in range(1, 8)]
 EEF_POSE_NAMES = ["x", "y", "z", "qx", "qy", "qz", "qw"]
 
 
-def dataset_features(image_size: int, sim_state_width: int, *, use_videos: bool = True) -> dict[str, dict[str, Any]]:
+def dataset_features(
+    image_size: int, sim_state_width: int, *, use_videos: bool = True
+) -> dict[str, dict[str, Any]]:
     """The LeRobot feature spec of a dataset with square images of ``image_size`` pixels."""
     image = {
         "dtype": "video" if use_videos else "image",
@@ -57,7 +59,9 @@ def frame_from_observation(obs: dict[str, Any], action: np.ndarray, sim_state_wi
     """One LeRobot frame (without ``task``) from a :class:`~libero_data.sim.LiberoEnv` observation."""
     state = np.asarray(obs["sim_state"], dtype=np.float64)
     if state.shape[0] > sim_state_width:
-        raise ValueError(f"MuJoCo state has {state.shape[0]} values, more than the dataset's {sim_state_width}")
+        raise ValueError(
+            f"MuJoCo state has {state.shape[0]} values, more than the dataset's {sim_state_width}"
+        )
     padded = np.zeros(sim_state_width, dtype=np.float64)
     padded[: state.shape[0]] = state
     frame: dict[str, Any] = {

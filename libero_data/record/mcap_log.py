@@ -35,7 +35,11 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         "properties": {
             "timestamp": _TIME,
             "frame_index": {"type": "integer"},
-            "state": {"type": "array", "items": {"type": "number"}, "description": "eef pos (3), axis-angle (3), gripper qpos (2)"},
+            "state": {
+                "type": "array",
+                "items": {"type": "number"},
+                "description": "eef pos (3), axis-angle (3), gripper qpos (2)",
+            },
             "joint_positions": {"type": "array", "items": {"type": "number"}},
             "gripper_state": {"type": "array", "items": {"type": "number"}},
             "eef_pose": {"type": "array", "items": {"type": "number"}, "description": "x y z qx qy qz qw"},
@@ -47,7 +51,11 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         "properties": {
             "timestamp": _TIME,
             "frame_index": {"type": "integer"},
-            "action": {"type": "array", "items": {"type": "number"}, "description": "OSC delta pose (6) + gripper (1)"},
+            "action": {
+                "type": "array",
+                "items": {"type": "number"},
+                "description": "OSC delta pose (6) + gripper (1)",
+            },
         },
     },
     "libero_data.Language": {
@@ -58,7 +66,11 @@ SCHEMAS: dict[str, dict[str, Any]] = {
     "libero_data.Success": {
         "type": "object",
         "title": "libero_data.Success",
-        "properties": {"timestamp": _TIME, "frame_index": {"type": "integer"}, "success": {"type": "boolean"}},
+        "properties": {
+            "timestamp": _TIME,
+            "frame_index": {"type": "integer"},
+            "success": {"type": "boolean"},
+        },
     },
 }
 CHANNELS = {
@@ -118,7 +130,9 @@ def write_episode_mcap(
             writer.add_metadata("libero_data", {k: str(v) for k, v in metadata.items()})
 
         def emit(topic: str, ns: int, message: dict[str, Any]) -> None:
-            writer.add_message(channel[topic], log_time=ns, publish_time=ns, data=json.dumps(message).encode())
+            writer.add_message(
+                channel[topic], log_time=ns, publish_time=ns, data=json.dumps(message).encode()
+            )
 
         emit("/language", 0, {"timestamp": _stamp(0), "task": task, "instruction": instruction})
         for t, frame in enumerate(frames):
@@ -147,7 +161,11 @@ def write_episode_mcap(
                     "eef_pose": [float(v) for v in np.concatenate([frame["eef_pos"], frame["eef_quat"]])],
                 },
             )
-            emit("/action", ns, {"timestamp": _stamp(ns), "frame_index": t, "action": [float(v) for v in frame["action"]]})
+            emit(
+                "/action",
+                ns,
+                {"timestamp": _stamp(ns), "frame_index": t, "action": [float(v) for v in frame["action"]]},
+            )
             emit("/success", ns, {"timestamp": _stamp(ns), "frame_index": t, "success": bool(success[t])})
         writer.finish()
         stream.flush()
@@ -164,3 +182,16 @@ def read_mcap(path: str | Path) -> Iterator[tuple[str, int, dict[str, Any]]]:
         reader = make_reader(stream)
         for _schema, channel, message in reader.iter_messages():
             yield channel.topic, message.log_time, json.loads(message.data)
+
+
+def count_messages(path: str | Path, topic: str) -> int:
+    """Number of messages on ``topic`` (read from the log's summary when it has one)."""
+    from mcap.reader import make_reader
+
+    with Path(path).open("rb") as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        if summary is not None and summary.statistics is not None:
+            ids = [cid for cid, ch in summary.channels.items() if ch.topic == topic]
+            return sum(summary.statistics.channel_message_counts.get(cid, 0) for cid in ids)
+    return sum(1 for t, _, _ in read_mcap(path) if t == topic)

@@ -7,9 +7,11 @@ renamed into place, so a shard folder on disk is always complete.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +29,9 @@ MCAP_NAME = "episode.mcap"
 INFO_NAME = "episode.json"
 
 
-def render_frames(env: LiberoEnv, states: np.ndarray, actions: np.ndarray, final_state: np.ndarray) -> tuple[list[dict[str, Any]], list[bool]]:
+def render_frames(
+    env: LiberoEnv, states: np.ndarray, actions: np.ndarray, final_state: np.ndarray
+) -> tuple[list[dict[str, Any]], list[bool]]:
     """Observations (with images) of every stored state, and success after each action."""
     frames: list[dict[str, Any]] = []
     holds: list[bool] = []
@@ -75,8 +79,9 @@ def write_shard(
         frame = frame_from_observation(obs, obs["action"], sim_state_width)
         frame["task"] = instruction
         dataset.add_frame(frame)
-    dataset.save_episode(parallel_encoding=False)
-    dataset.finalize()
+    with quiet_datasets():
+        dataset.save_episode(parallel_encoding=False)
+        dataset.finalize()
     write_episode_mcap(
         tmp / MCAP_NAME,
         frames=frames,
@@ -92,6 +97,20 @@ def write_shard(
         shutil.rmtree(out)
     tmp.rename(out)
     return out
+
+
+@contextlib.contextmanager
+def quiet_datasets() -> Iterator[None]:
+    """Silence the ``datasets`` library's per-episode progress bars, then restore the setting."""
+    from datasets.utils import are_progress_bars_disabled, disable_progress_bars, enable_progress_bars
+
+    was_disabled = are_progress_bars_disabled()
+    disable_progress_bars()
+    try:
+        yield
+    finally:
+        if not was_disabled:
+            enable_progress_bars()
 
 
 def _fsync_tree(root: Path) -> None:

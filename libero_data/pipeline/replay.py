@@ -1,0 +1,72 @@
+"""``libero-data replay``: a stored episode as a Rerun recording.
+
+Frames come from the dataset itself (decoded by lerobot), so the recording shows exactly
+what a policy would be trained on: both cameras, the 8-D state, the action and the task's
+language, on a ``frame`` timeline (and ``time`` in seconds).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from libero_data.record.features import (
+    ACTION,
+    ACTION_NAMES,
+    OBS_IMAGE,
+    OBS_STATE,
+    OBS_WRIST_IMAGE,
+    STATE_NAMES,
+)
+
+
+def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
+    """Write episode ``episode`` of the dataset at ``root`` to the ``.rrd`` file ``out``."""
+    import rerun as rr
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root = Path(root)
+    info = json.loads((root / "meta" / "info.json").read_text())
+    total = int(info.get("total_episodes", 0))
+    if not 0 <= episode < total:
+        raise ValueError(f"{root} has episodes 0..{total - 1}, not {episode}")
+    dataset = LeRobotDataset(_repo_id(root), root=root, episodes=[episode])
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    rec = rr.RecordingStream("libero-data", recording_id=f"{root.name}-episode-{episode}")
+    tmp = out.with_name(out.name + ".tmp")
+    rec.save(str(tmp))
+    language = None
+    fps = float(info["fps"])
+    for i in range(len(dataset)):
+        item = dataset[i]
+        t = int(item["frame_index"])
+        rec.set_time("frame", sequence=t)
+        rec.set_time("time", duration=t / fps)
+        if language is None:
+            language = str(item["task"])
+            rec.log("language", rr.TextDocument(language), static=True)
+            rec.log("log", rr.TextLog(f"episode {episode}: {language}"))
+        for key, path in ((OBS_IMAGE, "cameras/agentview"), (OBS_WRIST_IMAGE, "cameras/eye_in_hand")):
+            if key in item:
+                image = (item[key].permute(1, 2, 0).numpy() * 255).round().clip(0, 255).astype(np.uint8)
+                rec.log(path, rr.Image(image).compress(jpeg_quality=90))
+        state = item[OBS_STATE].numpy()
+        action = item[ACTION].numpy()
+        for name, value in zip(STATE_NAMES, state, strict=True):
+            rec.log(f"state/{name}", rr.Scalars(float(value)))
+        for name, value in zip(ACTION_NAMES, action, strict=True):
+            rec.log(f"action/{name}", rr.Scalars(float(value)))
+    rec.flush()
+    rec.disconnect()
+    tmp.replace(out)
+    return out
+
+
+def _repo_id(root: Path) -> str:
+    meta = root / "meta" / "libero.json"
+    if meta.is_file():
+        return str(json.loads(meta.read_text())["request"]["repo_id"])
+    return f"local/{root.name}"
