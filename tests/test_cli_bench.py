@@ -5,7 +5,9 @@ import sys
 
 
 def bench(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "libero_bench.cli", *args], capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "libero_bench.cli", *args], capture_output=True, text=True, timeout=120
+    )
 
 
 def test_orders_lists_the_upstream_orders() -> None:

@@ -272,9 +272,22 @@ def run_job(
 _QUEUE: Any = None
 
 
+def _die_with_parent() -> None:
+    """Ask Linux to kill this worker when the generating process dies (even by SIGKILL)."""
+    import ctypes
+    import signal
+    import sys
+
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL)
+
+
 def _init_worker(queue: Any) -> None:
     global _QUEUE
     _QUEUE = queue
+    _die_with_parent()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("SVT_LOG", "1")
     logging.getLogger("libero_data").setLevel(logging.WARNING)
@@ -361,6 +374,7 @@ def generate(
     work = out / WORK
     with _locked(work):
         recover(out, work / "publish.json")
+        _remove_leftovers(work)
         saved = work / "request.json"
         if not saved.is_file():
             tmp = saved.with_name("request.json.tmp")
@@ -457,6 +471,18 @@ def generate(
                     note(key, ok, n)
         maybe_publish(force=True)
         return progress
+
+
+def _remove_leftovers(work: Path) -> None:
+    """Half-written files of an interrupted run (never referenced by anything)."""
+    import shutil
+
+    for pattern in ("shards/*.tmp-*", "search/*.tmp.npz", "snapshots/*"):
+        for path in work.glob(pattern):
+            if path.is_dir():
+                shutil.rmtree(path, ignore_errors=True)
+            else:
+                path.unlink(missing_ok=True)
 
 
 def _jobs(

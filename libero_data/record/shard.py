@@ -63,7 +63,7 @@ def write_shard(
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     out = Path(out_dir)
-    tmp = out.with_name(out.name + ".tmp")
+    tmp = out.with_name(f"{out.name}.tmp-{os.getpid()}")
     if tmp.exists():
         shutil.rmtree(tmp)
     frames, success = render_frames(env, states, actions, final_state)

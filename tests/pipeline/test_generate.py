@@ -1,0 +1,107 @@
+"""generate -> load through both loaders; the card, the MCAP logs and our metadata."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from libero_data.record.features import ACTION, OBS_IMAGE, OBS_SIM_STATE, OBS_STATE, OBS_WRIST_IMAGE
+
+pytestmark = pytest.mark.sim
+
+LANGUAGES = {"open the middle drawer of the cabinet", "turn on the stove"}
+
+
+def test_load_dataset_reads_the_frames(tiny_dataset: Path) -> None:
+    import datasets
+
+    frames = datasets.load_dataset(str(tiny_dataset), split="train")
+    info = json.loads((tiny_dataset / "meta" / "info.json").read_text())
+    assert info["total_episodes"] == 2 and len(frames) == info["total_frames"] > 50
+    row = frames[0]
+    assert len(row[OBS_STATE]) == 8 and len(row[ACTION]) == 7
+    assert set(frames.unique("episode_index")) == {0, 1}
+    assert set(frames.unique("task_index")) == {0, 1}
+
+
+def test_lerobot_dataset_gives_decoded_frames_with_language(tiny_dataset: Path) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("libero-data/libero_goal", root=tiny_dataset)
+    assert ds.num_episodes == 2 and ds.fps == 20
+    first, last = ds[0], ds[len(ds) - 1]
+    for item in (first, last):
+        assert item["task"] in LANGUAGES
+        for key in (OBS_IMAGE, OBS_WRIST_IMAGE):
+            image = item[key]
+            assert tuple(image.shape) == (3, 64, 64)
+            assert 0.0 <= float(image.min()) and float(image.max()) <= 1.0 and float(image.std()) > 0.02
+    assert first["task"] != last["task"]
+    dim = int(first["observation.sim_state_dim"])
+    assert 50 < dim <= first[OBS_SIM_STATE].shape[0]
+    assert np.all(first[OBS_SIM_STATE].numpy()[dim:] == 0)
+
+
+def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -> None:
+    text = (tiny_dataset / "README.md").read_text()
+    assert text.startswith("---\n")
+    header = yaml.safe_load(text.split("---\n")[1])
+    assert header["license"] == "mit"
+    assert header["task_categories"] == ["robotics"]
+    assert header["configs"][0]["data_files"] == "data/*/*.parquet"
+    assert "LeRobot" in header["tags"]
+    for needle in ("open the middle drawer of the cabinet", "(Open wooden_cabinet_1_middle_region)", "(Turnon flat_stove_1)", "version: mujoco", "| seed | 3 |"):
+        assert needle in text
+    meta = json.loads((tiny_dataset / "meta" / "libero.json").read_text())
+    assert meta["complete"] is True and meta["request"]["seed"] == 3
+    assert set(meta["versions"]) >= {"mujoco", "robosuite", "lerobot", "libero-data"}
+
+
+def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
+    rows = [json.loads(line) for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()]
+    assert [r["episode_index"] for r in rows] == [0, 1]
+    assert [r["task_name"] for r in rows] == ["open_the_middle_drawer_of_the_cabinet", "turn_on_the_stove"]
+    assert all(r["success"] and r["init_index"] == 0 for r in rows)
+    assert sorted(p.name for p in (tiny_dataset / "meta" / "bddl").iterdir()) == [
+        "open_the_middle_drawer_of_the_cabinet.bddl",
+        "turn_on_the_stove.bddl",
+    ]
+
+
+def test_mcap_logs_have_every_channel(tiny_dataset: Path) -> None:
+    from libero_data.record.mcap_log import read_mcap
+
+    rows = [json.loads(line) for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()]
+    for row in rows:
+        messages = list(read_mcap(tiny_dataset / "mcap" / f"episode_{row['episode_index']:06d}.mcap"))
+        topics = {t for t, _, _ in messages}
+        assert topics == {"/camera/agentview", "/camera/eye_in_hand", "/state", "/action", "/language", "/success"}
+        actions = [m for t, _, m in messages if t == "/action"]
+        assert len(actions) == row["length"]
+        success = [m["success"] for t, _, m in messages if t == "/success"]
+        assert success[-1] is True and not any(success[:-1])
+        image = next(m for t, _, m in messages if t == "/camera/agentview")
+        assert image["format"] == "jpeg" and len(image["data"]) > 100
+        language = next(m for t, _, m in messages if t == "/language")
+        assert language["instruction"] == row["language"]
+
+
+def test_bad_input_fails_cleanly(tmp_path: Path) -> None:
+    from tests.pipeline.conftest import run_cli
+
+    for args, message in [
+        (("--suite", "libero_gaol"), "unknown suite 'libero_gaol'"),
+        (("--suite", "libero_goal", "--tasks", "12"), "suite libero_goal has tasks 0..9, not 12"),
+    ]:
+        result = run_cli("generate", *args, "--out", str(tmp_path / "x"), timeout=120)
+        assert result.returncode == 2
+        assert message in result.stderr and "Traceback" not in result.stderr
+        assert not (tmp_path / "x").exists(), "bad input leaves nothing behind"
+    (tmp_path / "busy").mkdir()
+    (tmp_path / "busy" / "notes.txt").write_text("mine")
+    result = run_cli("generate", "--suite", "libero_goal", "--tasks", "7", "-n", "1", "--out", str(tmp_path / "busy"), timeout=120)
+    assert result.returncode == 2 and "not empty" in result.stderr
