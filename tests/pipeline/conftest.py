@@ -10,13 +10,28 @@ from pathlib import Path
 import pytest
 
 #: Two short tasks (open a drawer, turn on the stove), one episode each, small images.
-TINY = ["--suite", "libero_goal", "--tasks", "0,7", "--episodes-per-task", "1", "--image-size", "64", "--seed", "3"]
+TINY = [
+    "--suite",
+    "libero_goal",
+    "--tasks",
+    "0,7",
+    "--episodes-per-task",
+    "1",
+    "--image-size",
+    "64",
+    "--seed",
+    "3",
+]
 
 
 def run_cli(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
     return subprocess.run(
-        [sys.executable, "-m", "libero_data.cli", *args], capture_output=True, text=True, timeout=timeout, env=env
+        [sys.executable, "-m", "libero_data.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
     )
 
 

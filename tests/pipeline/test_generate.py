@@ -39,7 +39,7 @@ def test_lerobot_dataset_gives_decoded_frames_with_language(tiny_dataset: Path) 
         for key in (OBS_IMAGE, OBS_WRIST_IMAGE):
             image = item[key]
             assert tuple(image.shape) == (3, 64, 64)
-            assert 0.0 <= float(image.min()) and float(image.max()) <= 1.0 and float(image.std()) > 0.02
+            assert float(image.min()) >= 0.0 and float(image.max()) <= 1.0 and float(image.std()) > 0.02
     assert first["task"] != last["task"]
     dim = int(first["observation.sim_state_dim"])
     assert 50 < dim <= first[OBS_SIM_STATE].shape[0]
@@ -54,7 +54,13 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
     assert header["task_categories"] == ["robotics"]
     assert header["configs"][0]["data_files"] == "data/*/*.parquet"
     assert "LeRobot" in header["tags"]
-    for needle in ("open the middle drawer of the cabinet", "(Open wooden_cabinet_1_middle_region)", "(Turnon flat_stove_1)", "version: mujoco", "| seed | 3 |"):
+    for needle in (
+        "open the middle drawer of the cabinet",
+        "(Open wooden_cabinet_1_middle_region)",
+        "(Turnon flat_stove_1)",
+        "version: mujoco",
+        "| seed | 3 |",
+    ):
         assert needle in text
     meta = json.loads((tiny_dataset / "meta" / "libero.json").read_text())
     assert meta["complete"] is True and meta["request"]["seed"] == 3
@@ -62,7 +68,10 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
 
 
 def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
-    rows = [json.loads(line) for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()]
+    rows = [
+        json.loads(line)
+        for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    ]
     assert [r["episode_index"] for r in rows] == [0, 1]
     assert [r["task_name"] for r in rows] == ["open_the_middle_drawer_of_the_cabinet", "turn_on_the_stove"]
     assert all(r["success"] and r["init_index"] == 0 for r in rows)
@@ -75,11 +84,21 @@ def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
 def test_mcap_logs_have_every_channel(tiny_dataset: Path) -> None:
     from libero_data.record.mcap_log import read_mcap
 
-    rows = [json.loads(line) for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()]
+    rows = [
+        json.loads(line)
+        for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    ]
     for row in rows:
         messages = list(read_mcap(tiny_dataset / "mcap" / f"episode_{row['episode_index']:06d}.mcap"))
         topics = {t for t, _, _ in messages}
-        assert topics == {"/camera/agentview", "/camera/eye_in_hand", "/state", "/action", "/language", "/success"}
+        assert topics == {
+            "/camera/agentview",
+            "/camera/eye_in_hand",
+            "/state",
+            "/action",
+            "/language",
+            "/success",
+        }
         actions = [m for t, _, m in messages if t == "/action"]
         assert len(actions) == row["length"]
         success = [m["success"] for t, _, m in messages if t == "/success"]
@@ -103,5 +122,16 @@ def test_bad_input_fails_cleanly(tmp_path: Path) -> None:
         assert not (tmp_path / "x").exists(), "bad input leaves nothing behind"
     (tmp_path / "busy").mkdir()
     (tmp_path / "busy" / "notes.txt").write_text("mine")
-    result = run_cli("generate", "--suite", "libero_goal", "--tasks", "7", "-n", "1", "--out", str(tmp_path / "busy"), timeout=120)
+    result = run_cli(
+        "generate",
+        "--suite",
+        "libero_goal",
+        "--tasks",
+        "7",
+        "-n",
+        "1",
+        "--out",
+        str(tmp_path / "busy"),
+        timeout=120,
+    )
     assert result.returncode == 2 and "not empty" in result.stderr

@@ -18,11 +18,18 @@ def test_replay_writes_a_readable_recording(tiny_dataset: Path, tmp_path: Path) 
     out = tmp_path / "ep1.rrd"
     result = run_cli("replay", str(tiny_dataset), "--episode", "1", "--rrd", str(out))
     assert result.returncode == 0, result.stderr
-    length = json.loads((tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()[1])["length"]
+    length = json.loads((tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()[1])[
+        "length"
+    ]
     recording = rd.load_recording(str(out))
     table = recording.view(index="frame", contents="/**").select().read_all()
     columns = set(table.column_names)
-    for needed in ("/cameras/agentview:EncodedImage:blob", "/cameras/eye_in_hand:EncodedImage:blob", "/action/gripper:Scalars:scalars", "/state/eef_z:Scalars:scalars"):
+    for needed in (
+        "/cameras/agentview:EncodedImage:blob",
+        "/cameras/eye_in_hand:EncodedImage:blob",
+        "/action/gripper:Scalars:scalars",
+        "/state/eef_z:Scalars:scalars",
+    ):
         assert needed in columns, sorted(columns)
     frames = table.column("frame").to_pylist()
     assert len(frames) == length and frames[0] == 0 and frames[-1] == length - 1

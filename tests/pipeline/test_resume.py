@@ -28,7 +28,19 @@ def _table(root: Path):
 
 def test_sigkill_then_rerun_completes_the_same_dataset(tiny_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "resumed"
-    command = [sys.executable, "-m", "libero_data.cli", "generate", *TINY, "--out", str(out), "--workers", "2", "--publish-every", "0"]
+    command = [
+        sys.executable,
+        "-m",
+        "libero_data.cli",
+        "generate",
+        *TINY,
+        "--out",
+        str(out),
+        "--workers",
+        "2",
+        "--publish-every",
+        "0",
+    ]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
     proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     deadline = time.monotonic() + 600
@@ -58,7 +70,9 @@ def test_sigkill_then_rerun_completes_the_same_dataset(tiny_dataset: Path, tmp_p
     assert ours == (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text()
     assert json.loads((out / "meta" / "info.json").read_text())["total_episodes"] == 2
     work = out / ".libero-data"
-    leftovers = [p.name for p in (work / "shards").iterdir() if ".tmp" in p.name] + list((work / "snapshots").iterdir())
+    leftovers = [p.name for p in (work / "shards").iterdir() if ".tmp" in p.name] + list(
+        (work / "snapshots").iterdir()
+    )
     assert leftovers == []
 
 

@@ -44,7 +44,9 @@ def test_truncated_parquet(damaged: Path) -> None:
 def test_missing_video(damaged: Path) -> None:
     (damaged / "videos" / "observation.images.wrist_image" / "chunk-000" / "file-000.mp4").unlink()
     issues = [str(i) for i in validate(damaged).issues or []]
-    assert issues == ["videos/observation.images.wrist_image/chunk-000/file-000.mp4: missing video (episode 0, observation.images.wrist_image)"]
+    assert issues == [
+        "videos/observation.images.wrist_image/chunk-000/file-000.mp4: missing video (episode 0, observation.images.wrist_image)"
+    ]
 
 
 def test_wrong_frame_count(damaged: Path) -> None:
@@ -52,7 +54,11 @@ def test_wrong_frame_count(damaged: Path) -> None:
     table = pq.read_table(path)
     lengths = table.column("length").to_pylist()
     lengths[1] += 3
-    table = table.set_column(table.column_names.index("length"), "length", pa.array(lengths, type=table.schema.field("length").type))
+    table = table.set_column(
+        table.column_names.index("length"),
+        "length",
+        pa.array(lengths, type=table.schema.field("length").type),
+    )
     pq.write_table(table, path)
     issues = [str(i) for i in validate(damaged).issues or []]
     assert any("total_frames" in i for i in issues)
