@@ -63,6 +63,7 @@ class Episode:
     seed: int
     plan: list[str] = field(default_factory=list)
     failure: str | None = None
+    setbacks: list[str] = field(default_factory=list)  # every skill failure, retried or not
 
     @property
     def length(self) -> int:
@@ -137,6 +138,7 @@ class Expert:
                     raise _Budget
 
         failure: str | None = None
+        setbacks: list[str] = []
         success = False
         try:
             for unit in _units(steps):
@@ -151,6 +153,7 @@ class Expert:
                         break
                     except SkillFailed as exc:
                         failure = str(exc)
+                        setbacks.append(f"{unit[-1]}: {exc}")
                         log.debug("attempt %d of %s failed: %s", attempt, unit, exc)
                         ctx.held = None
                 else:
@@ -185,6 +188,7 @@ class Expert:
             seed=seed,
             plan=[str(s) for s in steps],
             failure=failure,
+            setbacks=setbacks,
         )
 
 

@@ -152,6 +152,12 @@ def plan_top_down(
             xy = gu * u + cv * v
             off_centre = float(np.linalg.norm(xy - com))
             grasp_depth = top - z
+            # Off-centre (rim) grasps hold best when the fingers close across the wall, i.e.
+            # along the line from the centre: penalise closing at an angle to it.
+            across = 0.0
+            if off_centre > 0.015:
+                radial = (xy - com) / off_centre
+                across = abs(float(radial @ v)) * min(off_centre / 0.03, 1.0)
             yaw_w = wrap_half_turn(yaw, yaw_reference)
             score = (
                 -off_centre / 0.02
@@ -159,6 +165,7 @@ def plan_top_down(
                 + clearance / 0.01
                 - abs(yaw_w - yaw_reference) / 1.0
                 - max(width - 0.06, 0.0) / 0.01
+                - across * 4.0
             )
             candidates.append(
                 Grasp(
@@ -186,20 +193,29 @@ def _support_below(others: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     return min(0.0, float(lo[2])) if lo[2] < 0.3 else float(lo[2])
 
 
-def hand_collisions(points: np.ndarray, pos: np.ndarray, mat: np.ndarray, opening: float = 0.0) -> int:
+WRIST_TOP = 0.26  # the last arm link (wrist) reaches this far above the grip site
+WRIST_HALF = 0.055
+
+
+def hand_collisions(
+    points: np.ndarray, pos: np.ndarray, mat: np.ndarray, opening: float = 0.0, margin: float = 0.0
+) -> int:
     """How many ``points`` the gripper would occupy at ``pos``/``mat`` (fingers ``opening`` apart).
 
     The gripper is modelled as boxes in its own frame (x closing, z approach): two fingers
-    from the tips up to the palm, and the hand above them.
+    from the tips up to the palm, the hand above them and the wrist link above the hand,
+    each grown by ``margin``.
     """
     local = (np.asarray(points) - pos) @ mat
     x, y, z = local[:, 0], local[:, 1], -local[:, 2]  # z: height above the grip site
+    m = margin
     fingers = (
-        (np.abs(x) > opening / 2)
-        & (np.abs(x) < opening / 2 + FINGER_THICKNESS)
-        & (np.abs(y) < FINGER_HALF_WIDTH)
-        & (z > -TIP_BELOW_SITE)
+        (np.abs(x) > opening / 2 - m)
+        & (np.abs(x) < opening / 2 + FINGER_THICKNESS + m)
+        & (np.abs(y) < FINGER_HALF_WIDTH + m)
+        & (z > -TIP_BELOW_SITE - m)
         & (z < FINGER_LENGTH)
     )
-    hand = (np.abs(x) < PALM_HALF[0]) & (np.abs(y) < PALM_HALF[1]) & (z >= FINGER_LENGTH) & (z < HAND_TOP)
-    return int((fingers | hand).sum())
+    hand = (np.abs(x) < PALM_HALF[0] + m) & (np.abs(y) < PALM_HALF[1] + m) & (z >= FINGER_LENGTH) & (z < HAND_TOP)
+    wrist = (np.abs(x) < WRIST_HALF + m) & (np.abs(y) < WRIST_HALF + m) & (z >= HAND_TOP) & (z < WRIST_TOP)
+    return int((fingers | hand | wrist).sum())

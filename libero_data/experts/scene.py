@@ -131,6 +131,10 @@ class SceneView:
         mass = self.model.body_mass[bodies]
         return (self.data.xipos[bodies] * mass[:, None]).sum(0) / max(mass.sum(), 1e-9)
 
+    def speed(self, name: str) -> float:
+        """Linear speed (m/s) of an object's root body."""
+        return float(np.linalg.norm(self.data.cvel[self.body_id(name)][3:]))
+
     def site(self, name: str) -> Site:
         i = self.site_id(name)
         return Site(

@@ -107,6 +107,26 @@ def lift(ctx: Context, height: float, mat: np.ndarray | None = None, speed: floa
     return (yield from ctx.motion.move(pos, mat, speed=speed, tol=0.015, max_steps=60))
 
 
+def go_to_pose(ctx: Context, pos: np.ndarray, mat: np.ndarray, clearance: float = 0.08) -> Actions:
+    """Reach a pose near obstacles: rise, travel above it, turn the wrist in free air, descend."""
+    here = ctx.scene.eef_pos()
+    high = max(here[2], pos[2] + clearance)
+    if here[2] < high - 0.01:
+        yield from ctx.motion.move(np.array([here[0], here[1], high]), None, tol=0.015, max_steps=60)
+    yield from ctx.motion.move(np.array([pos[0], pos[1], high]), None, tol=0.015, max_steps=150)
+    yield from ctx.motion.move(np.array([pos[0], pos[1], high]), mat, tol=0.02, rot_tol=0.08, max_steps=60)
+    return (yield from ctx.motion.move(pos, mat, tol=0.01, max_steps=80))
+
+
+def wait_until_still(ctx: Context, name: str, max_steps: int = 20, speed: float = 0.01) -> Actions:
+    """Hold still until ``name`` has come to rest (after a drop or a failed grasp)."""
+    for _ in range(max_steps):
+        if ctx.scene.speed(name) < speed:
+            return True
+        yield from ctx.motion.hold(1)
+    return False
+
+
 def settle_orientation(ctx: Context, mat: np.ndarray, steps: int = 30) -> Actions:
     """Turn the wrist in place until it matches ``mat``."""
     pos = ctx.scene.eef_pos()

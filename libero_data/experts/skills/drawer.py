@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from libero_data.experts.geometry import approach_frame
+from libero_data.experts.grasp import hand_collisions
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.articulation import Part, holds, part_of
-from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift
+from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, go_to_pose, lift
 
 
 def _handle(ctx: Context, part: Part) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -63,13 +64,14 @@ class OpenDrawer(Skill):
         )
         yield from ctx.motion.move(grip, mat, speed=0.1, tol=0.005, max_steps=60)
         yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=mat)
-        target = abs(part.joint.range[1] - part.joint.range[0]) * 0.95
+        # Pull all the way out (against the stop): the most room in front of the cabinet.
+        full = abs(part.joint.range[1] - part.joint.range[0])
         start = ctx.scene.eef_pos()
+        travel = full - part.opened_by(ctx) + 0.01 + ctx.jitter(0.004)
         for _ in range(4):
-            pulled = part.opened_by(ctx)
-            if holds(ctx, "Open", region) and pulled > 0.85 * target:
+            if holds(ctx, "Open", region) and part.opened_by(ctx) >= 0.97 * full:
                 break
-            goal = start + out * (target + 0.01 + ctx.jitter(0.005))
+            goal = start + out * travel
             yield from ctx.motion.move(goal, mat, speed=0.12, tol=0.006, max_steps=60)
         yield from ctx.motion.set_gripper(OPEN, steps=6, mat=mat)
         back = ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.05])
@@ -79,34 +81,66 @@ class OpenDrawer(Skill):
         return True
 
 
+def _free_push_pose(ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, bar: np.ndarray) -> np.ndarray | None:
+    """A gripper orientation that can push the handle home without hitting anything.
+
+    Tilts from nearly horizontal (finger tips lead) to nearly vertical, fingers side by side
+    along the handle or across it, are checked against the scene's points along the whole
+    push (the drawer itself excluded: it moves with the push).
+    """
+    scene = ctx.scene
+    drawer = tuple(scene.subtree(scene.body_id(part.joint.body)))
+    # What lies in the drawer travels with it.
+    riding = tuple(o.name for o in ctx.problem.objects if scene.in_contact(o.name, part.joint.body))
+    points = scene.obstacle_points(exclude=riding, exclude_bodies=drawer)
+    near = np.linalg.norm(points[:, :2] - centre[:2], axis=1) < 0.45
+    points = points[near]
+    travel = abs(part.opened_by(ctx))
+    path = [centre - out * d for d in np.linspace(0.0, travel, 6)]
+    now = scene.eef_mat()
+    for pitch_deg in (8, 25, 40, 55, 70, 82):
+        pitch = np.deg2rad(pitch_deg + ctx.jitter(3))
+        approach = -out * np.cos(pitch) + np.array([0.0, 0.0, -1.0]) * np.sin(pitch)
+        across = np.cross(approach, bar)
+        for closing in (bar, across):
+            closing = closing if closing @ now[:, 0] >= 0 else -closing
+            mat = approach_frame(approach, closing)
+            # The finger tips touch the handle's front face: the grip site sits a little behind.
+            if all(hand_collisions(points, p - approach * 0.012, mat, margin=0.004) == 0 for p in path):
+                return mat
+    return None
+
+
 @SKILLS.register("close_drawer")
 class CloseDrawer(Skill):
-    """``close_drawer(region)``: push the drawer front with the closed fingers until it shuts."""
+    """``close_drawer(region)``: push the handle home with the closed fingers.
+
+    The hand points at the drawer front (as when opening), so the finger tips lead and the
+    hand stays clear of the cabinet's top and of the drawer above. Randomised: tilt, height.
+    """
 
     name = "close_drawer"
 
     def run(self, ctx: Context) -> Actions:
         (region,) = self.args
         part = part_of(ctx, region)
-        centre, out, _bar = _handle(ctx, part)
+        centre, out, bar = _handle(ctx, part)
+        found = _free_push_pose(ctx, part, centre, out, bar)
+        if found is None:
+            raise SkillFailed(f"no room to push {region} shut")
+        mat = found
+        approach = mat[:, 2]
         ctx.motion.gripper = CLOSE
-        mat = ctx.current_top_down()
-        # Push just below the handle with the finger tips, from in front of it.
-        push_at = centre + np.array([0, 0, -0.01 + ctx.jitter(0.004)])
-        yield from lift(ctx, centre[2] + 0.08)
-        yield from ctx.motion.move(
-            push_at + out * 0.07 + np.array([0, 0, 0.06]), mat, tol=0.012, max_steps=150
-        )
-        yield from ctx.motion.move(push_at + out * 0.05, mat, speed=0.15, tol=0.008, max_steps=60)
-        travel = abs(part.joint.range[1] - part.joint.range[0]) + 0.03
+        push_at = centre + np.array([0, 0, ctx.jitter(0.003)]) - approach * 0.012
+        yield from go_to_pose(ctx, push_at - approach * 0.07, mat)
+        yield from ctx.motion.move(push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60)
         for _ in range(3):
             if holds(ctx, "Close", region):
                 break
+            remaining = abs(part.opened_by(ctx)) + 0.02
             here = ctx.scene.eef_pos()
-            yield from ctx.motion.move(here - out * travel, mat, speed=0.15, tol=0.01, max_steps=50)
-        yield from ctx.motion.move(
-            ctx.scene.eef_pos() + out * 0.05 + np.array([0, 0, 0.04]), mat, tol=0.02, max_steps=30
-        )
+            yield from ctx.motion.move(here - out * remaining, mat, speed=0.15, tol=0.008, max_steps=60)
+        yield from ctx.motion.move(ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.03]), mat, tol=0.02, max_steps=30)
         if not holds(ctx, "Close", region):
             raise SkillFailed(f"{region} did not close")
         return True

@@ -7,7 +7,7 @@ import numpy as np
 from libero_data.experts.geometry import yaw_of_closing
 from libero_data.experts.grasp import plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
-from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift
+from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift, wait_until_still
 
 
 @SKILLS.register("pick")
@@ -23,6 +23,7 @@ class Pick(Skill):
     def run(self, ctx: Context) -> Actions:
         (obj,) = self.args
         scene = ctx.scene
+        yield from wait_until_still(ctx, obj)
         grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
         if not grasps:
             raise SkillFailed(f"no top-down grasp fits {obj}")
@@ -47,9 +48,10 @@ class Pick(Skill):
             yield from lift(ctx, grasp.pos[2] + 0.08)
             raise SkillFailed(f"missed {obj}")
         z0 = float(scene.pos(obj)[2])
-        yield from lift(ctx, grasp.pos[2] + 0.06 + ctx.jitter(0.01), grasp.mat, speed=0.2)
+        yield from lift(ctx, grasp.pos[2] + 0.06 + ctx.jitter(0.01), grasp.mat, speed=0.12)
         if not scene.grasped(obj) or scene.pos(obj)[2] < z0 + 0.02:
             yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
+            yield from lift(ctx, scene.eef_pos()[2] + 0.05)
             raise SkillFailed(f"{obj} slipped while lifting")
         ctx.held = obj
         ctx.notes["grasp_mat"] = grasp.mat

@@ -87,19 +87,25 @@ def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tup
     for x in xs:
         for y in ys:
             xy = np.array([x, y])
-            under = np.linalg.norm(local[:, :2] - xy, axis=1) < radius * 0.9
-            inside = under & (local[:, 2] < hi[2] + 0.005) & (local[:, 2] > lo[2] - 0.05)
-            floor = float(local[inside, 2].max()) if inside.any() else float(lo[2])
-            # Nothing may hang over the column above the floor (cabinet tops over drawers).
-            over = under & (local[:, 2] > floor + 0.03)
-            if over.any():
-                continue
+            dist = np.linalg.norm(local[:, :2] - xy, axis=1)
+            under = dist < radius * 0.85
+            # The floor is what the object's base will stand on (the middle of its outline).
+            base = (dist < radius * 0.5) & (local[:, 2] < hi[2] + 0.005) & (local[:, 2] > lo[2] - 0.05)
+            floor = float(local[base, 2].max()) if base.any() else float(lo[2])
             if floor > hi[2] - 0.01:
                 continue
+            # Something over the spot (a cabinet over its drawer, a shelf over a layer):
+            # nothing can come down there.
+            if (under & (local[:, 2] > hi[2] + 0.02)).any():
+                continue
+            # Walls and rims inside the outline: fewer is better (the object may brush one).
+            rim = int((under & (local[:, 2] > floor + 0.03)).sum())
+            if rim and not (dist[under & (local[:, 2] > floor + 0.03)] > radius * 0.6).all():
+                continue  # a wall through the middle of the outline, not just a rim at its edge
             centre = float(np.linalg.norm(xy - site.pos[:2]))
-            candidates.append((centre + float(ctx.rng.uniform(0, 0.01)), xy, floor))
+            candidates.append((rim, centre + float(ctx.rng.uniform(0, 0.01)), xy, floor))
     if not candidates:
         return None
-    candidates.sort(key=lambda c: c[0])
-    _, xy, floor = candidates[0]
+    candidates.sort(key=lambda c: (c[0], c[1]))
+    _, _, xy, floor = candidates[0]
     return xy, floor
