@@ -216,6 +216,11 @@ def hand_collisions(
         & (z > -TIP_BELOW_SITE - m)
         & (z < FINGER_LENGTH)
     )
-    hand = (np.abs(x) < PALM_HALF[0] + m) & (np.abs(y) < PALM_HALF[1] + m) & (z >= FINGER_LENGTH) & (z < HAND_TOP)
+    hand = (
+        (np.abs(x) < PALM_HALF[0] + m)
+        & (np.abs(y) < PALM_HALF[1] + m)
+        & (z >= FINGER_LENGTH)
+        & (z < HAND_TOP)
+    )
     wrist = (np.abs(x) < WRIST_HALF + m) & (np.abs(y) < WRIST_HALF + m) & (z >= HAND_TOP) & (z < WRIST_TOP)
     return int((fingers | hand | wrist).sum())

@@ -103,7 +103,7 @@ def plan(
         if atom.predicate == "On" and not graspable(obj):
             steps.append(Step("push", (obj, target), atom))
         else:
-            steps.append(Step("pick", (obj,), None))
+            steps.append(Step("pick", (obj, target), None))
             steps.append(Step("place_in" if atom.predicate == "In" else "place_on", (obj, target), atom))
         if door is not None and door in closing_after:
             steps.append(articulation(closing_after.pop(door)))

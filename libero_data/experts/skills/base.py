@@ -118,6 +118,30 @@ def go_to_pose(ctx: Context, pos: np.ndarray, mat: np.ndarray, clearance: float 
     return (yield from ctx.motion.move(pos, mat, tol=0.01, max_steps=80))
 
 
+def turn_wrist(ctx: Context, angle: float, limit: float = 2.75) -> Actions:
+    """Turn the held object about the vertical by ``angle`` (mod 2 pi), within the wrist's range.
+
+    Of the equivalent turns, the one that keeps the last arm joint inside +-``limit`` rad is
+    taken, in steps of at most 0.6 rad so the arm turns the intended way. Returns the turn.
+    """
+    from libero_data.experts.geometry import rot_z
+
+    q7 = ctx.scene.joint("robot0_joint7").qpos
+    angle = (angle + np.pi) % (2 * np.pi) - np.pi
+    options = [angle, angle - 2 * np.pi, angle + 2 * np.pi]
+    # A positive turn about world z turns the top-down hand's last joint the other way.
+    feasible = [a for a in options if abs(q7 - a) <= limit] or [min(options, key=lambda a: abs(q7 - a))]
+    chosen = min(feasible, key=abs)
+    start = ctx.scene.eef_mat()
+    pos = ctx.scene.eef_pos()
+    steps = max(1, int(np.ceil(abs(chosen) / 0.6)))
+    for i in range(1, steps + 1):
+        yield from ctx.motion.move(
+            pos, rot_z(chosen * i / steps) @ start, tol=0.02, rot_tol=0.12, max_steps=25
+        )
+    return chosen
+
+
 def wait_until_still(ctx: Context, name: str, max_steps: int = 20, speed: float = 0.01) -> Actions:
     """Hold still until ``name`` has come to rest (after a drop or a failed grasp)."""
     for _ in range(max_steps):

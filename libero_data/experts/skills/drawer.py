@@ -81,7 +81,9 @@ class OpenDrawer(Skill):
         return True
 
 
-def _free_push_pose(ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, bar: np.ndarray) -> np.ndarray | None:
+def _free_push_pose(
+    ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, bar: np.ndarray
+) -> np.ndarray | None:
     """A gripper orientation that can push the handle home without hitting anything.
 
     Tilts from nearly horizontal (finger tips lead) to nearly vertical, fingers side by side
@@ -140,7 +142,9 @@ class CloseDrawer(Skill):
             remaining = abs(part.opened_by(ctx)) + 0.02
             here = ctx.scene.eef_pos()
             yield from ctx.motion.move(here - out * remaining, mat, speed=0.15, tol=0.008, max_steps=60)
-        yield from ctx.motion.move(ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.03]), mat, tol=0.02, max_steps=30)
+        yield from ctx.motion.move(
+            ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.03]), mat, tol=0.02, max_steps=30
+        )
         if not holds(ctx, "Close", region):
             raise SkillFailed(f"{region} did not close")
         return True

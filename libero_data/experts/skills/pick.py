@@ -21,14 +21,19 @@ class Pick(Skill):
     name = "pick"
 
     def run(self, ctx: Context) -> Actions:
-        (obj,) = self.args
+        obj, *rest = self.args
         scene = ctx.scene
         yield from wait_until_still(ctx, obj)
         grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
         if not grasps:
             raise SkillFailed(f"no top-down grasp fits {obj}")
+        if rest and scene.has_site(rest[0]):
+            from libero_data.experts.skills.place_in import _enclosed
+
+            if _enclosed(ctx, scene.site(rest[0])):
+                grasps = _for_side_insertion(ctx, obj, grasps)
         # Any grasp close to the best one is as good: pick among them for variety.
-        good = [g for g in grasps if g.score > grasps[0].score - 1.0][:6]
+        good = [g for g in grasps if g.score > grasps[0].score - 1.0][:6] or grasps[:3]
         grasp = good[int(ctx.rng.integers(len(good)))]
         above = grasp.pos + np.array([0.0, 0.0, 0.08 + ctx.jitter(0.02) + 0.02])
         ctx.motion.gripper = OPEN
@@ -56,3 +61,21 @@ class Pick(Skill):
         ctx.held = obj
         ctx.notes["grasp_mat"] = grasp.mat
         return True
+
+
+def _for_side_insertion(ctx: Context, obj: str, grasps: list) -> list:
+    """Re-rank grasps for carrying the object into a covered space from the side.
+
+    The hand must stay outside while the object goes in: grasps far from the object's
+    centre (a mug's handle) with the fingers closing across that offset come first.
+    """
+    com = ctx.scene.com(obj)[:2]
+
+    def score(g) -> float:
+        offset = g.pos[:2] - com
+        reach = float(np.linalg.norm(offset))
+        closing = g.mat[:2, 0] / max(float(np.linalg.norm(g.mat[:2, 0])), 1e-9)
+        tangential = 1.0 - abs(float(offset @ closing)) / max(reach, 1e-9)
+        return reach / 0.01 + 3.0 * tangential + 0.2 * g.score
+
+    return sorted(grasps, key=lambda g: -score(g))

@@ -2,22 +2,37 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
-from libero_data.experts.motion import Actions
+from libero_data.experts.grasp import hand_collisions
+from libero_data.experts.motion import OPEN, Actions
 from libero_data.experts.scene import Site
-from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed
-from libero_data.experts.skills.carry import best_turn, carry_to, footprint, release, wrist_options
+from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift, turn_wrist
+from libero_data.experts.skills.carry import (
+    best_turn,
+    carry_to,
+    footprint,
+    held_offset,
+    release,
+    wrist_options,
+)
+
+log = logging.getLogger(__name__)
 
 
 @SKILLS.register("place_in")
 class PlaceIn(Skill):
-    """``place_in(obj, region)``: lower the object into the region from above and let go.
+    """``place_in(obj, region)``: put the object into the region and let go.
 
-    LIBERO's ``In`` holds when the object's body lies inside the region's box. The drop
-    point is the spot of the box whose column is open from above for the object's outline
-    (a drawer pulled out is open only at its front), and the wrist turns the object so its
-    outline fits the box. Randomised: the drop point among the open ones, release height.
+    LIBERO's ``In`` holds when the object's body lies inside the region's box. Open from
+    above (baskets, trays, caddies, drawers): the drop point is the spot of the box whose
+    column is open for the object's outline (a drawer pulled out is open only at its
+    front), and the wrist turns the object so its outline fits the box. Covered from above
+    (a microwave, a shelf's lower layer): the object is carried in from the open side, the
+    hand leading from that side, as deep as the hand fits. Randomised: the spot among the
+    open ones, release height, insertion depth.
     """
 
     name = "place_in"
@@ -29,6 +44,8 @@ class PlaceIn(Skill):
         scene = ctx.scene
         site = scene.site(region)
         container = ctx.parent_of(region)
+        if _enclosed(ctx, site):
+            return (yield from _insert_from_side(ctx, site, region))
         mat = _fitting_orientation(ctx, site)
         spot = _open_spot(ctx, site, mat, container)
         if spot is None:
@@ -64,22 +81,31 @@ def _fitting_orientation(ctx: Context, site: Site) -> np.ndarray:
 
 
 def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tuple[np.ndarray, float] | None:
-    """A point of the region whose column is free above the object's outline, and the floor there."""
+    """A point of the region whose column is free above the object's outline, and the floor there.
+
+    The outline is the held object's footprint (turned as it will be), as a rectangle around
+    the body position. Inside it: the floor is the highest point under the middle half;
+    anything above the region's box over the outline (a cabinet over its drawer) rules the
+    spot out; walls rising inside the outline are allowed only near its edge (rims), and
+    fewer is better.
+    """
     assert ctx.held is not None
     scene = ctx.scene
     lo, hi = _box(site)
     outline = footprint(ctx, mat)
-    radius = float(np.linalg.norm(outline, axis=1).max())
+    omin, omax = outline.min(0), outline.max(0)
+    mid, half = (omin + omax) / 2, (omax - omin) / 2
+    reach = float(np.abs(outline).max()) + 0.02
     pts = scene.obstacle_points(exclude=(ctx.held,))
-    local = pts[np.all((pts[:, :2] > lo[:2] - radius - 0.02) & (pts[:, :2] < hi[:2] + radius + 0.02), axis=1)]
-    margin = 0.01
+    local = pts[np.all((pts[:, :2] > lo[:2] - reach) & (pts[:, :2] < hi[:2] + reach), axis=1)]
+    margin = 0.005
     xs = (
-        np.linspace(lo[0] + margin, hi[0] - margin, 9)
+        np.linspace(lo[0] + margin, hi[0] - margin, 11)
         if hi[0] - lo[0] > 2 * margin
         else np.array([site.pos[0]])
     )
     ys = (
-        np.linspace(lo[1] + margin, hi[1] - margin, 9)
+        np.linspace(lo[1] + margin, hi[1] - margin, 11)
         if hi[1] - lo[1] > 2 * margin
         else np.array([site.pos[1]])
     )
@@ -87,25 +113,125 @@ def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tup
     for x in xs:
         for y in ys:
             xy = np.array([x, y])
-            dist = np.linalg.norm(local[:, :2] - xy, axis=1)
-            under = dist < radius * 0.85
-            # The floor is what the object's base will stand on (the middle of its outline).
-            base = (dist < radius * 0.5) & (local[:, 2] < hi[2] + 0.005) & (local[:, 2] > lo[2] - 0.05)
+            rel = np.abs(local[:, :2] - (xy + mid)) / np.maximum(half, 1e-3)  # 1.0 = outline edge
+            edge = rel.max(axis=1)
+            base = (edge < 0.5) & (local[:, 2] < hi[2] + 0.005) & (local[:, 2] > lo[2] - 0.05)
             floor = float(local[base, 2].max()) if base.any() else float(lo[2])
             if floor > hi[2] - 0.01:
                 continue
-            # Something over the spot (a cabinet over its drawer, a shelf over a layer):
-            # nothing can come down there.
-            if (under & (local[:, 2] > hi[2] + 0.02)).any():
-                continue
-            # Walls and rims inside the outline: fewer is better (the object may brush one).
-            rim = int((under & (local[:, 2] > floor + 0.03)).sum())
-            if rim and not (dist[under & (local[:, 2] > floor + 0.03)] > radius * 0.6).all():
+            if ((edge < 0.9) & (local[:, 2] > hi[2] + 0.02)).any():
+                continue  # something overhead
+            walls = (edge < 0.9) & (local[:, 2] > floor + 0.03)
+            if (walls & (edge < 0.6)).any():
                 continue  # a wall through the middle of the outline, not just a rim at its edge
             centre = float(np.linalg.norm(xy - site.pos[:2]))
-            candidates.append((rim, centre + float(ctx.rng.uniform(0, 0.01)), xy, floor))
+            candidates.append((int(walls.sum()), centre + float(ctx.rng.uniform(0, 0.01)), xy, floor))
     if not candidates:
         return None
     candidates.sort(key=lambda c: (c[0], c[1]))
     _, _, xy, floor = candidates[0]
     return xy, floor
+
+
+def _enclosed(ctx: Context, site: Site) -> bool:
+    """Whether most of the region's box is covered from above (a microwave, a shelf layer)."""
+    lo, hi = _box(site)
+    pts = ctx.scene.obstacle_points(exclude=(ctx.held,) if ctx.held else ())
+    inside = np.all(
+        (pts[:, :2] > lo[:2] + 0.1 * (hi - lo)[:2]) & (pts[:, :2] < hi[:2] - 0.1 * (hi - lo)[:2]), axis=1
+    )
+    above = pts[inside & (pts[:, 2] > hi[2] - 0.005) & (pts[:, 2] < hi[2] + 0.12)]
+    if len(above) == 0:
+        return False
+    cells = set(
+        map(tuple, np.floor((above[:, :2] - lo[:2]) / np.maximum((hi - lo)[:2] / 5, 1e-3)).astype(int))
+    )
+    return len(cells) >= 0.6 * 25
+
+
+def _entrance(ctx: Context, site: Site) -> np.ndarray:
+    """The horizontal direction out of the region through its most open side.
+
+    Each side is cut into cells (across x height); a cell is blocked when anything lies at
+    or up to 10 cm beyond the side (a wall may stand a little outside the region's box).
+    """
+    lo, hi = _box(site)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+    pts = ctx.scene.obstacle_points(exclude=(ctx.held,) if ctx.held else ())
+    rel = pts - centre
+    best, best_open = None, -1.0
+    for angle in np.arange(8) * np.pi / 4:
+        d = np.array([np.cos(angle), np.sin(angle)])
+        side = np.array([-d[1], d[0]])
+        extent = float(np.abs(d) @ half[:2])
+        width = float(np.abs(side) @ half[:2])
+        along, across = rel[:, :2] @ d, rel[:, :2] @ side
+        band = (along > extent - 0.03) & (along < extent + 0.10) & (np.abs(across) < width)
+        band &= (rel[:, 2] > -0.8 * half[2]) & (rel[:, 2] < 0.8 * half[2])
+        cols = np.clip(((across[band] / width + 1) / 2 * 8).astype(int), 0, 7)
+        rows = np.clip(((rel[band, 2] / (0.8 * half[2]) + 1) / 2 * 4).astype(int), 0, 3)
+        blocked = len(set(zip(cols.tolist(), rows.tolist(), strict=True)))
+        opened = 1.0 - blocked / 32
+        if opened > best_open:
+            best, best_open = d, opened
+    assert best is not None
+    return best
+
+
+def _insert_from_side(ctx: Context, site: Site, region: str) -> Actions:
+    assert ctx.held is not None
+    scene = ctx.scene
+    obj = ctx.held
+    lo, hi = _box(site)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+    out = _entrance(ctx, site)
+    face = centre[:2] + out * float(np.abs(out) @ half[:2])
+    # Turn the wrist so the hand (the grasp) is on the entrance side of the object.
+    grip_rel = scene.eef_pos()[:2] - scene.pos(obj)[:2]
+    turn = float(np.arctan2(out[1], out[0]) - np.arctan2(grip_rel[1], grip_rel[0]))
+    yield from lift(ctx, max(scene.eef_pos()[2], hi[2] + 0.1))
+    turn = yield from turn_wrist(ctx, turn)
+    mat = scene.eef_mat()
+    rel, hang = held_offset(ctx)
+    body_to_eef = -(mat @ rel)
+    others = scene.obstacle_points(exclude=(obj,))
+    near = np.linalg.norm(others[:, :2] - centre[:2], axis=1) < 0.5
+    others = others[near]
+    outline = footprint(ctx, mat)
+    shrink = 0.15 * (hi - lo)[:2]
+    inner = np.all((others[:, :2] > lo[:2] + shrink) & (others[:, :2] < hi[:2] - shrink), axis=1)
+    inner &= others[:, 2] < lo[2] + 0.03
+    floor = float(others[inner, 2].max()) if inner.any() else float(lo[2])
+    bottom = floor + 0.012 + ctx.jitter(0.003)
+    body_z = bottom + hang
+    depth_max = float(np.abs(out) @ (2 * half[:2]))
+    reach = float(np.abs(outline @ out).max())
+    chosen = None
+    opening = scene.finger_opening()
+    side = np.array([-out[1], out[0]])
+    width = float(np.abs(side) @ half[:2])
+    shifts = sorted(np.linspace(-0.8 * width, 0.8 * width, 17), key=abs)
+    for depth in np.arange(depth_max - reach, 0.0, -0.005):
+        for shift in shifts:
+            body = np.array([*(face - out * depth + side * shift), body_z])
+            eef = body + body_to_eef
+            if hand_collisions(others, eef, mat, opening=opening, margin=0.004) == 0:
+                chosen = (body, eef)
+                break
+        if chosen is not None:
+            break
+    if chosen is None:
+        log.debug(
+            "insert into %s: out=%s face=%s body_to_eef=%s floor=%.3f", region, out, face, body_to_eef, floor
+        )
+        raise SkillFailed(f"the hand does not fit into {region}")
+    body, eef = chosen
+    outside = body[:2] + out * (float(np.linalg.norm(body[:2] - face)) + reach + 0.06)
+    yield from carry_to(ctx, outside, bottom, mat)
+    yield from ctx.motion.move(eef, mat, speed=0.1, tol=0.006, max_steps=80)
+    yield from ctx.motion.set_gripper(OPEN, steps=8, mat=mat)
+    ctx.held = None
+    back = scene.eef_pos() + np.array([*(out * (reach + 0.08)), 0.0])
+    yield from ctx.motion.move(back, mat, speed=0.15, tol=0.015, max_steps=60)
+    yield from lift(ctx, scene.eef_pos()[2] + 0.08)
+    return True
