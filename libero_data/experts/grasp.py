@@ -107,7 +107,7 @@ def plan_top_down(
                 continue
             lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
             width = hi_u - lo_u
-            if width > MAX_OPENING - 0.01 or width < 0.004:
+            if width > MAX_OPENING - 0.01 or width < 0.008:
                 reject("width")
                 continue
             # The pads must make the first contact on both sides: the outermost points
@@ -165,6 +165,7 @@ def plan_top_down(
                 + clearance / 0.01
                 - abs(yaw_w - yaw_reference) / 1.0
                 - max(width - 0.06, 0.0) / 0.01
+                - max(0.015 - width, 0.0) / 0.002  # thin features (handles, edges) slip
                 - across * 4.0
             )
             candidates.append(

@@ -196,7 +196,7 @@ class SceneView:
     # articulation ----------------------------------------------------------------------------
     def joints_of(self, name: str) -> list[Joint]:
         """Hinge and slide joints inside an object's subtree."""
-        m, d = self.model, self.data
+        m = self.model
         wanted = set(self.bodies(name))
         out = []
         for j in range(m.njnt):
@@ -286,7 +286,8 @@ def _surface_samples(model: Any, g: int) -> np.ndarray:
         pts = _cylinder_points(float(size[0]), float(size[1]))
         if kind == _CAPSULE:
             cap = _sphere_points(float(size[0]))
-            pts = np.concatenate([pts, cap + [0, 0, size[1]], cap - [0, 0, size[1]]])
+            up = np.array([0.0, 0.0, size[1]])
+            pts = np.concatenate([pts, cap + up, cap - up])
         return pts
     if kind == _ELLIPSOID:
         return _sphere_points(1.0) * size
@@ -342,7 +343,8 @@ def _cylinder_points(r: float, half: float) -> np.ndarray:
         k = max(6, int(2 * np.pi * rr / _SPACING))
         aa = np.linspace(0, 2 * np.pi, k, endpoint=False)
         ring = np.stack([rr * np.cos(aa), rr * np.sin(aa), np.zeros(k)], axis=1)
-        rings += [ring + [0, 0, half], ring - [0, 0, half]]
+        up = np.array([0.0, 0.0, half])
+        rings += [ring + up, ring - up]
     return np.concatenate([side, *rings, np.array([[0, 0, half], [0, 0, -half]])])
 
 

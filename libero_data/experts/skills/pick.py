@@ -23,44 +23,65 @@ class Pick(Skill):
     def run(self, ctx: Context) -> Actions:
         obj, *rest = self.args
         scene = ctx.scene
-        yield from wait_until_still(ctx, obj)
-        grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
-        if not grasps:
-            raise SkillFailed(f"no top-down grasp fits {obj}")
+        insertion = False
         if rest and scene.has_site(rest[0]):
             from libero_data.experts.skills.place_in import _enclosed
 
-            if _enclosed(ctx, scene.site(rest[0])):
+            insertion = _enclosed(ctx, scene.site(rest[0]))
+        # Up to three tries; after a miss the grasps are planned again (the object may have
+        # moved) and spots within 2 cm of a missed one are skipped.
+        missed: list[np.ndarray] = []
+        for attempt in range(3):
+            yield from wait_until_still(ctx, obj)
+            grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
+            if insertion:
                 grasps = _for_side_insertion(ctx, obj, grasps)
-        # Any grasp close to the best one is as good: pick among them for variety.
-        good = [g for g in grasps if g.score > grasps[0].score - 1.0][:6] or grasps[:3]
-        grasp = good[int(ctx.rng.integers(len(good)))]
-        above = grasp.pos + np.array([0.0, 0.0, 0.08 + ctx.jitter(0.02) + 0.02])
-        ctx.motion.gripper = OPEN
-        # Rise first when low, so the hand does not sweep through nearby objects.
-        here = scene.eef_pos()
-        top = scene.aabb(obj)[1][2]
-        if here[2] < top + 0.06:
-            yield from lift(ctx, top + 0.08)
-        yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
-        reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.12 + ctx.jitter(0.03), tol=0.004)
-        if not reached:
-            # Blocked on the way down (usually by the object itself): one more slow push.
-            yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.06, tol=0.006, max_steps=30)
-        yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=grasp.mat)
-        if not scene.grasped(obj):
-            yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
-            yield from lift(ctx, grasp.pos[2] + 0.08)
+            grasps = [g for g in grasps if all(np.linalg.norm(g.pos[:2] - m[:2]) >= 0.02 for m in missed)]
+            if not grasps:
+                raise SkillFailed(f"no top-down grasp fits {obj}" if not missed else f"missed {obj}")
+            if attempt == 0:
+                # Any grasp close to the best one is as good: pick among them for variety.
+                good = [g for g in grasps if g.score > grasps[0].score - 1.0][:6] or grasps[:3]
+                grasp = good[int(ctx.rng.integers(len(good)))]
+            else:
+                grasp = grasps[0]
+            if (yield from _attempt(ctx, obj, grasp)):
+                break
+            missed.append(grasp.pos)
+        else:
             raise SkillFailed(f"missed {obj}")
-        z0 = float(scene.pos(obj)[2])
-        yield from lift(ctx, grasp.pos[2] + 0.06 + ctx.jitter(0.01), grasp.mat, speed=0.12)
-        if not scene.grasped(obj) or scene.pos(obj)[2] < z0 + 0.02:
-            yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
-            yield from lift(ctx, scene.eef_pos()[2] + 0.05)
-            raise SkillFailed(f"{obj} slipped while lifting")
         ctx.held = obj
         ctx.notes["grasp_mat"] = grasp.mat
         return True
+
+
+def _attempt(ctx: Context, obj: str, grasp) -> Actions:
+    """One grasp: approach from above, close, lift a little; False (gripper open) if it failed."""
+    scene = ctx.scene
+    above = grasp.pos + np.array([0.0, 0.0, 0.08 + ctx.jitter(0.02) + 0.02])
+    ctx.motion.gripper = OPEN
+    # Rise first when low, so the hand does not sweep through nearby objects.
+    here = scene.eef_pos()
+    top = scene.aabb(obj)[1][2]
+    if here[2] < top + 0.06:
+        yield from lift(ctx, top + 0.08)
+    yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
+    reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.12 + ctx.jitter(0.03), tol=0.004)
+    if not reached:
+        # Blocked on the way down (usually by the object itself): one more slow push.
+        yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.06, tol=0.006, max_steps=30)
+    yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=grasp.mat)
+    if not scene.grasped(obj):
+        yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
+        yield from lift(ctx, grasp.pos[2] + 0.08)
+        return False
+    z0 = float(scene.pos(obj)[2])
+    yield from lift(ctx, grasp.pos[2] + 0.06 + ctx.jitter(0.01), grasp.mat, speed=0.12)
+    if not scene.grasped(obj) or scene.pos(obj)[2] < z0 + 0.02:
+        yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
+        yield from lift(ctx, scene.eef_pos()[2] + 0.05)
+        return False
+    return True
 
 
 def _for_side_insertion(ctx: Context, obj: str, grasps: list) -> list:
