@@ -72,14 +72,23 @@ def carry_to(
     yield from ctx.motion.move(np.array([eef_xy[0], eef_xy[1], travel]), mat, tol=0.012, max_steps=160)
     if not scene.grasped(ctx.held):
         raise SkillFailed(f"dropped {ctx.held} while carrying it")
-    reached = yield from ctx.motion.move(
-        np.array([eef_xy[0], eef_xy[1], target_z]),
-        mat,
-        speed=0.12 + ctx.jitter(0.03),
-        tol=0.006,
-        max_steps=80,
-    )
-    return reached
+    # An object held off its centre (by a handle) may have swung in the hand: let it settle,
+    # then lower it closed loop on where the object itself is, not where it was.
+    for _ in range(15):
+        if scene.speed(ctx.held) < 0.02:
+            break
+        yield from ctx.motion.hold(1, mat)
+    speed = 0.12 + ctx.jitter(0.03)
+    for _ in range(80):
+        body = scene.pos(ctx.held)
+        bottom = float(scene.points(ctx.held)[:, 2].min())
+        error_xy = np.asarray(body_xy[:2]) - body[:2]
+        error_z = (bottom_z + above) - bottom
+        if np.linalg.norm(error_xy) < 0.005 and abs(error_z) < 0.006:
+            return True
+        goal = scene.eef_pos() + np.array([error_xy[0], error_xy[1], error_z])
+        yield from ctx.motion.move(goal, mat, speed=speed, tol=0.003, max_steps=2)
+    return False
 
 
 def release(ctx: Context, rise: float = 0.08) -> Actions:

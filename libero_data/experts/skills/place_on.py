@@ -29,15 +29,58 @@ class PlaceOn(Skill):
         if ctx.is_entity(target):
             xy = scene.pos(target)[:2] + ctx.jitter(0.006, 2)
         else:
-            site = scene.site(target)
-            room = np.maximum(site.size[:2] - 0.02, 0.0)
-            xy = site.pos[:2] + ctx.rng.uniform(-1, 1, 2) * np.minimum(room, 0.01)
+            sharing = sum(1 for a in ctx.problem.goal_atoms() if a.predicate == "On" and a.args[1] == target)
+            xy = _free_spot(ctx, scene.site(target), mat, shared=sharing > 1)
         outline = footprint(ctx, mat)
         radius = float(np.linalg.norm(outline, axis=1).max())
         support = _support(ctx, xy, radius * 0.8, exclude=(obj,))
         yield from carry_to(ctx, xy, support + 0.012 + ctx.jitter(0.004), mat)
         yield from release(ctx)
         return True
+
+
+def _free_spot(ctx: Context, site, mat: np.ndarray, *, shared: bool = False) -> np.ndarray:
+    """Where in a surface region the held object's outline meets the fewest other things.
+
+    Candidates keep the object's body at least 1 cm inside the region (LIBERO's ``On`` for
+    regions checks the body position); among equally free ones the nearest the centre wins
+    (with a little seeded jitter), or, when several objects go onto the region (two moka
+    pots on one stove), the one farthest from the other objects, leaving room for them.
+    """
+    assert ctx.held is not None
+    half_region = np.abs(site.mat @ site.size)[:2]
+    outline = footprint(ctx, mat)
+    omin, omax = outline.min(0), outline.max(0)
+    mid, half = (omin + omax) / 2, np.maximum((omax - omin) / 2, 1e-3)
+    pts = ctx.scene.obstacle_points(exclude=(ctx.held,))
+    near = np.all(np.abs(pts[:, :2] - site.pos[:2]) < half_region + np.abs(outline).max() + 0.02, axis=1)
+    pts = pts[near]
+    room = np.maximum(half_region - 0.01, 0.0)
+    movable = [o.name for o in ctx.problem.objects if o.name != ctx.held]
+    others = np.concatenate([ctx.scene.points(o)[:, :2] for o in movable]) if movable else np.zeros((0, 2))
+    best, best_key = site.pos[:2].copy(), None
+    for fx in np.linspace(-1, 1, 7):
+        for fy in np.linspace(-1, 1, 7):
+            xy = site.pos[:2] + np.array([fx, fy]) * room
+            rel = np.abs(pts[:, :2] - (xy + mid)) / half
+            inside = rel.max(axis=1) < 1.05
+            base = rel.max(axis=1) < 0.5
+            floor = float(pts[base, 2].max()) if base.any() else float(site.pos[2])
+            blocked = int((inside & (pts[:, 2] > floor + 0.01)).sum())
+            # Most of the outline must stand on that surface, or the object tips over its edge.
+            level = pts[np.abs(pts[:, 2] - floor) < 0.006, :2]
+            probes = xy + mid + np.stack(np.meshgrid(*(np.linspace(-0.9, 0.9, 5),) * 2), -1).reshape(-1, 2) * half
+            supported = np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes]) if len(level) else 0.0
+            if supported < 0.8:
+                blocked += 10_000
+            if shared:
+                clearance = float(np.linalg.norm(others - xy, axis=1).min()) if len(others) else 1.0
+                key = (blocked, -min(clearance, 0.3) + float(ctx.rng.uniform(0, 0.005)))
+            else:
+                key = (blocked, float(np.linalg.norm(xy - site.pos[:2])) + float(ctx.rng.uniform(0, 0.005)))
+            if best_key is None or key < best_key:
+                best, best_key = xy, key
+    return best
 
 
 def _support(ctx: Context, xy: np.ndarray, radius: float, exclude: tuple[str, ...]) -> float:
