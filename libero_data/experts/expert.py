@@ -109,7 +109,10 @@ class Expert:
             lo, hi = scene.aabb(obj)
             if hi[2] - lo[2] < 0.03 and max(hi[:2] - lo[:2]) > 0.12:
                 return False  # flat and wide (a plate): slide it instead
-            return bool(plan_top_down(scene, obj, yaw_reference=np.pi / 2))
+            return bool(
+                plan_top_down(scene, obj, yaw_reference=np.pi / 2)
+                or plan_top_down(scene, obj, yaw_reference=np.pi / 2, pad_tolerance=0.008)
+            )
 
         return plan(problem, joint_kind=joint_kind, is_open=is_open, graspable=graspable)
 

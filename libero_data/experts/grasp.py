@@ -42,7 +42,7 @@ def plan_top_down(
     name: str,
     *,
     yaw_reference: float,
-    depth: float = 0.025,
+    depth: float | tuple[float, ...] = (0.025, 0.015, 0.035, 0.008),
     n_yaw: int = 12,
     spacing: float = 0.01,
     support: float | None = None,
@@ -53,14 +53,18 @@ def plan_top_down(
     points: np.ndarray | None = None,
     exclude: tuple[str, ...] | None = None,
     exclude_bodies: tuple[int, ...] = (),
+    pad_tolerance: float = 0.004,
 ) -> list[Grasp]:
     """Feasible top-down grasps of ``name``, best first (empty when none fits).
 
     ``stats``, when given, counts the candidates rejected for each reason. ``points``
     replaces the object's own points (a part of a fixture, such as a knob); then
-    ``exclude`` names what else is not an obstacle (default: ``name``).
+    ``exclude`` names what else is not an obstacle (default: ``name``). ``pad_tolerance``
+    is how far (m) the object may stand out beyond the pads' contact higher up the fingers
+    (flared walls): small is safe, larger admits thin flared rims.
     """
     stats = {} if stats is None else stats
+    depths = (depth,) if isinstance(depth, float) else tuple(depth)
 
     def reject(reason: str) -> None:
         stats[reason] = stats.get(reason, 0) + 1
@@ -92,87 +96,121 @@ def plan_top_down(
         du_e, dv_e = everything[:, :2] @ u, everything[:, :2] @ v
         for c in centres:
             cu, cv = float(c @ u), float(c @ v)
-            in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
-            if in_line.sum() < 3:
-                reject("empty")
-                continue
-            top = float(obj[in_line, 2].max())
-            z = max(top - depth, floor + TIP_BELOW_SITE + 0.001)
-            if z > top - 0.003:
-                reject("shallow")
-                continue
-            span = in_line & (obj[:, 2] > z - TIP_BELOW_SITE) & (obj[:, 2] < z + FINGER_LENGTH)
-            if span.sum() < 3:
-                reject("span")
-                continue
-            lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
-            width = hi_u - lo_u
-            if width > MAX_OPENING - 0.01 or width < 0.008:
-                reject("width")
-                continue
-            # The pads must make the first contact on both sides: the outermost points
-            # between the fingers lie in front of the pads, not at a finger's edge or top.
-            pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(obj[:, 2] - z) < PAD_HALF + 0.002)
-            if (
-                pads.sum() < 2
-                or float(du_o[pads].min()) - lo_u > 0.004
-                or hi_u - float(du_o[pads].max()) > 0.004
-            ):
-                reject("pads")
-                continue
-            mid = (lo_u + hi_u) / 2
-            gu = mid
-            # The fingers come down outside [lo_u, hi_u]: nothing may be there.
-            rel_u = du_e - gu
-            rel_v = np.abs(dv_e - cv)
-            inner = MAX_OPENING / 2
-            in_fingers = (
-                (np.abs(rel_u) > width / 2 + 0.002)
-                & (np.abs(rel_u) < inner + FINGER_THICKNESS)
-                & (rel_v < FINGER_HALF_WIDTH)
-                & (everything[:, 2] > z - TIP_BELOW_SITE)
-            )
-            if in_fingers.any():
-                reject("fingers")
-                continue
-            in_palm = (
-                (np.abs(rel_u) < PALM_HALF[0])
-                & (rel_v < PALM_HALF[1])
-                & (everything[:, 2] > z + FINGER_LENGTH)
-            )
-            if in_palm.any():
-                reject("palm")
-                continue
-            # Clearance: distance from the finger volumes to the nearest other point.
-            band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (everything[:, 2] > z - TIP_BELOW_SITE)
-            outside = band & (np.abs(rel_u) > inner + FINGER_THICKNESS)
-            clearance = 0.03
-            if outside.any():
-                clearance = min(clearance, float((np.abs(rel_u[outside]) - inner - FINGER_THICKNESS).min()))
-            xy = gu * u + cv * v
-            off_centre = float(np.linalg.norm(xy - com))
-            grasp_depth = top - z
-            # Off-centre (rim) grasps hold best when the fingers close across the wall, i.e.
-            # along the line from the centre: penalise closing at an angle to it.
-            across = 0.0
-            if off_centre > 0.015:
-                radial = (xy - com) / off_centre
-                across = abs(float(radial @ v)) * min(off_centre / 0.03, 1.0)
-            yaw_w = wrap_half_turn(yaw, yaw_reference)
-            score = (
-                -off_centre / 0.02
-                + min(grasp_depth, 0.03) / 0.01
-                + clearance / 0.01
-                - abs(yaw_w - yaw_reference) / 1.0
-                - max(width - 0.06, 0.0) / 0.01
-                - max(0.015 - width, 0.0) / 0.002  # thin features (handles, edges) slip
-                - across * 4.0
-            )
-            candidates.append(
-                Grasp(
-                    pos=np.array([xy[0], xy[1], z]), mat=top_down(yaw_w), yaw=yaw_w, width=width, score=score
+            for grasp_depth_goal in depths:
+                in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
+                if in_line.sum() < 3:
+                    reject("empty")
+                    continue
+                top = float(obj[in_line, 2].max())
+                z = max(top - grasp_depth_goal, floor + TIP_BELOW_SITE + 0.001)
+                if z > top - 0.003:
+                    reject("shallow")
+                    continue
+                span = in_line & (obj[:, 2] > z - TIP_BELOW_SITE) & (obj[:, 2] < z + FINGER_LENGTH)
+                if span.sum() < 3:
+                    reject("span")
+                    continue
+                lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
+                width = hi_u - lo_u
+                if width > MAX_OPENING - 0.01 or width < 0.004:
+                    reject("width")
+                    continue
+                # The pads must make the first contact on both sides: the outermost points
+                # between the fingers lie in front of the pads, not at a finger's edge or top.
+                pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(obj[:, 2] - z) < PAD_HALF + 0.002)
+                if (
+                    pads.sum() < 2
+                    or float(du_o[pads].min()) - lo_u > pad_tolerance
+                    or hi_u - float(du_o[pads].max()) > pad_tolerance
+                ):
+                    reject("pads")
+                    continue
+                # Antipodal contacts: across each pad, the contact surface must face the pad
+                # (not run along the closing direction, as a chord across a bowl's edge does),
+                # or the squeeze slides off. Compare the surface's position at both pad edges.
+                band = pads & (np.abs(obj[:, 2] - z) < PAD_HALF)
+                sides_ok = True
+                for sign in (1.0, -1.0):
+                    left = band & (dv_o - cv > -PAD_HALF) & (dv_o - cv < -0.002)
+                    right = band & (dv_o - cv > 0.002) & (dv_o - cv < PAD_HALF)
+                    if left.sum() < 2 or right.sum() < 2:
+                        continue
+                    edge_l = float((sign * du_o[left]).max())
+                    edge_r = float((sign * du_o[right]).max())
+                    if abs(edge_l - edge_r) > 0.8 * (PAD_HALF + 0.002):
+                        sides_ok = False
+                if not sides_ok:
+                    reject("slanted")
+                    continue
+                # Squeezing a wide body whose sides flare out above the pads pushes it down
+                # out of the fingers (bowls held from outside): not allowed beyond 1.5 mm.
+                if width > 0.02:
+                    above = span & (obj[:, 2] > z + PAD_HALF)
+                    if above.any() and (
+                        float(du_o[pads].min()) - float(du_o[above].min()) > 0.0015
+                        or float(du_o[above].max()) - float(du_o[pads].max()) > 0.0015
+                    ):
+                        reject("flare")
+                        continue
+                mid = (lo_u + hi_u) / 2
+                gu = mid
+                # The fingers come down outside [lo_u, hi_u]: nothing may be there.
+                rel_u = du_e - gu
+                rel_v = np.abs(dv_e - cv)
+                inner = MAX_OPENING / 2
+                in_fingers = (
+                    (np.abs(rel_u) > width / 2 + 0.002)
+                    & (np.abs(rel_u) < inner + FINGER_THICKNESS)
+                    & (rel_v < FINGER_HALF_WIDTH)
+                    & (everything[:, 2] > z - TIP_BELOW_SITE)
                 )
-            )
+                if in_fingers.any():
+                    reject("fingers")
+                    continue
+                in_palm = (
+                    (np.abs(rel_u) < PALM_HALF[0])
+                    & (rel_v < PALM_HALF[1])
+                    & (everything[:, 2] > z + FINGER_LENGTH)
+                )
+                if in_palm.any():
+                    reject("palm")
+                    continue
+                # Clearance: distance from the finger volumes to the nearest other point.
+                band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (everything[:, 2] > z - TIP_BELOW_SITE)
+                outside = band & (np.abs(rel_u) > inner + FINGER_THICKNESS)
+                clearance = 0.03
+                if outside.any():
+                    clearance = min(
+                        clearance, float((np.abs(rel_u[outside]) - inner - FINGER_THICKNESS).min())
+                    )
+                xy = gu * u + cv * v
+                off_centre = float(np.linalg.norm(xy - com))
+                grasp_depth = top - z
+                # Off-centre (rim) grasps hold best when the fingers close across the wall, i.e.
+                # along the line from the centre: penalise closing at an angle to it.
+                across = 0.0
+                if off_centre > 0.015:
+                    radial = (xy - com) / off_centre
+                    across = abs(float(radial @ v)) * min(off_centre / 0.03, 1.0)
+                yaw_w = wrap_half_turn(yaw, yaw_reference)
+                score = (
+                    -off_centre / 0.02
+                    + min(grasp_depth, 0.03) / 0.01
+                    + clearance / 0.01
+                    - abs(yaw_w - yaw_reference) / 1.0
+                    - max(width - 0.06, 0.0) / 0.01
+                    - max(0.012 - width, 0.0) / 0.004  # thin features (handles, edges) slip more
+                    - across * 2.0
+                )
+                candidates.append(
+                    Grasp(
+                        pos=np.array([xy[0], xy[1], z]),
+                        mat=top_down(yaw_w),
+                        yaw=yaw_w,
+                        width=width,
+                        score=score,
+                    )
+                )
     candidates.sort(key=lambda g: -g.score)
     return candidates
 

@@ -7,7 +7,6 @@ The simulator is never changed through this module.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -72,6 +71,7 @@ class SceneView:
         self._robot_bodies = {
             b for b in range(m.nbody) if self._body_names[b].startswith(("robot0", "gripper0"))
         }
+        self._samples: dict[int, np.ndarray] = {}
 
     # ids ---------------------------------------------------------------------------------
     def site_id(self, name: str) -> int:
@@ -185,9 +185,12 @@ class SceneView:
         bodies = [b for b in range(1, self.model.nbody) if b not in skip]
         return self.points_of_bodies(bodies)
 
-    @functools.cache  # noqa: B019 - one SceneView per environment, geometry is fixed
     def _local_points(self, geom: int) -> np.ndarray:
-        return _surface_samples(self.model, geom)
+        # Cached per view (a class-level cache would keep every environment alive).
+        cached = self._samples.get(geom)
+        if cached is None:
+            cached = self._samples[geom] = _surface_samples(self.model, geom)
+        return cached
 
     def aabb(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         pts = self.points(name)

@@ -68,8 +68,12 @@ def carry_to(
     travel = max(clear, target_z + 0.05, start[2])
     travel = min(travel, ctx.table_height() + MAX_EEF_HEIGHT_ABOVE_TABLE)
     if start[2] < travel - 0.01:
-        yield from lift(ctx, travel, speed=0.3)
-    yield from ctx.motion.move(np.array([eef_xy[0], eef_xy[1], travel]), mat, tol=0.012, max_steps=160)
+        yield from lift(ctx, travel, speed=0.3 if ctx.notes.get("grasp_width", 1.0) >= 0.012 else 0.15)
+    # A thin rim between the fingers slips under fast turns and stops: carry it gently.
+    gentle = 0.18 if ctx.notes.get("grasp_width", 1.0) < 0.012 else None
+    yield from ctx.motion.move(
+        np.array([eef_xy[0], eef_xy[1], travel]), mat, speed=gentle, tol=0.012, max_steps=200
+    )
     if not scene.grasped(ctx.held):
         raise SkillFailed(f"dropped {ctx.held} while carrying it")
     # An object held off its centre (by a handle) may have swung in the hand: let it settle,

@@ -34,6 +34,10 @@ class Pick(Skill):
         for attempt in range(3):
             yield from wait_until_still(ctx, obj)
             grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
+            if not grasps:  # thin flared rims (some bowls) need a looser contact rule
+                grasps = plan_top_down(
+                    scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), pad_tolerance=0.008
+                )
             if insertion:
                 grasps = _for_side_insertion(ctx, obj, grasps)
             grasps = [g for g in grasps if all(np.linalg.norm(g.pos[:2] - m[:2]) >= 0.02 for m in missed)]
@@ -52,6 +56,7 @@ class Pick(Skill):
             raise SkillFailed(f"missed {obj}")
         ctx.held = obj
         ctx.notes["grasp_mat"] = grasp.mat
+        ctx.notes["grasp_width"] = grasp.width
         return True
 
 

@@ -69,8 +69,14 @@ def _free_spot(ctx: Context, site, mat: np.ndarray, *, shared: bool = False) -> 
             blocked = int((inside & (pts[:, 2] > floor + 0.01)).sum())
             # Most of the outline must stand on that surface, or the object tips over its edge.
             level = pts[np.abs(pts[:, 2] - floor) < 0.006, :2]
-            probes = xy + mid + np.stack(np.meshgrid(*(np.linspace(-0.9, 0.9, 5),) * 2), -1).reshape(-1, 2) * half
-            supported = np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes]) if len(level) else 0.0
+            probes = (
+                xy + mid + np.stack(np.meshgrid(*(np.linspace(-0.9, 0.9, 5),) * 2), -1).reshape(-1, 2) * half
+            )
+            supported = (
+                np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes])
+                if len(level)
+                else 0.0
+            )
             if supported < 0.8:
                 blocked += 10_000
             if shared:
