@@ -398,6 +398,33 @@ def expert_report_cmd(
     console.print(f"wrote {csv_path} and {md_path}", markup=False)
 
 
+@app.command("card")
+@user_errors
+def card_cmd(
+    suite: Annotated[str, typer.Option("--suite", "-s", help="Suite name.")],
+    report: Annotated[Path, typer.Option("--expert-report", help="expert_report.csv from `libero-data expert-report`.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Markdown file to write.")],
+    episodes_per_task: Annotated[int, typer.Option("--episodes-per-task", "-n", min=1)] = 50,
+    image_size: Annotated[int, typer.Option("--image-size", min=32, max=512)] = 128,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+) -> None:
+    """Render the dataset card that `generate` would write for a suite, from an expert report."""
+    import csv
+
+    from libero_data.pipeline.generate import suite_card
+
+    if not report.is_file():
+        raise FileNotFoundError(f"expert report {report} does not exist")
+    rates = {}
+    with report.open() as f:
+        for row in csv.DictReader(f):
+            rates[row["name"]] = (int(row["successes"]), int(row["episodes"]))
+    text = suite_card(suite, rates, episodes_per_task=episodes_per_task, image_size=image_size, seed=seed)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text)
+    _console().print(f"wrote {out}", markup=False)
+
+
 def main() -> None:
     app()
 

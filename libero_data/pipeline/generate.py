@@ -669,3 +669,56 @@ def _describe(
         ],
     }
     return meta, bddl, card
+
+
+def suite_card(suite_name: str, rates: dict[str, tuple[int, int]], *, episodes_per_task: int = 50, image_size: int = 128, seed: int = 0) -> str:
+    """The card ``generate --suite`` writes with these settings, before any data exists.
+
+    ``rates`` maps task names to (successes, attempts) of the expert (e.g. from
+    ``libero-data expert-report``); frame counts are only known once generated.
+    """
+    from libero_data.bddl.writer import _formula
+    from libero_data.cards import CardTask, render_card
+    from libero_data.tasks import get_suite
+
+    suite = get_suite(suite_name)
+    request = GenerateRequest(
+        suite=suite.name, tasks=tuple(t.index for t in suite.tasks), episodes_per_task=episodes_per_task,
+        image_size=image_size, seed=seed, repo_id=f"libero-data/{suite.name}",
+    )
+    tasks = []
+    for task in suite.tasks:
+        successes, attempts = rates.get(task.name, (0, 0))
+        tasks.append(CardTask(task.index, task.name, task.language, _formula(task.problem.goal), episodes_per_task, attempts, successes))
+    vers = versions()
+    settings = {
+        "suite": suite.name,
+        "episodes per task": str(episodes_per_task),
+        "image size": f"{image_size}×{image_size}",
+        "seed": str(seed),
+        "attempts per episode (at most)": str(request.max_attempts),
+        "fps": "20",
+        **{f"version: {k}": v for k, v in vers.items()},
+    }
+    stored = min(episodes_per_task, STORED_INITS)
+    return render_card(
+        title=f"libero-data · {suite.name}",
+        summary=(
+            f"Scripted demonstrations of the LIBERO suite `{suite.name}` in LeRobot v3 format. This card was "
+            "rendered before generation, from the expert's measured success rates (`libero-data expert-report`, "
+            "one attempt per stored init state); `libero-data generate` writes the same card with the dataset's "
+            "own counts."
+        ),
+        suite=suite.name,
+        repo_id=request.repo_id,
+        load_path=".",
+        command=f"libero-data generate --suite {suite.name} --out <dir>",
+        tasks=tasks,
+        frames=None,
+        fps=20,
+        image_size=image_size,
+        sim_state_width=sim_state_width(request),
+        settings=settings,
+        start_note=f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k).",
+        expert_note="Here: successes over the first attempts from the stored init states, as measured by the expert report.",
+    )
