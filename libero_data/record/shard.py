@@ -59,14 +59,43 @@ def write_shard(
     sim_state_width: int,
     info: dict[str, Any],
 ) -> Path:
-    """Render and write one episode into ``out_dir`` (created atomically)."""
+    """Render one searched episode from its states and write it into ``out_dir``."""
+    frames, success = render_frames(env, states, actions, final_state)
+    return write_frames(
+        out_dir,
+        frames=frames,
+        success=success,
+        task=task,
+        instruction=instruction,
+        image_size=image_size,
+        sim_state_width=sim_state_width,
+        info=info,
+    )
+
+
+def write_frames(
+    out_dir: str | Path,
+    *,
+    frames: list[dict[str, Any]],
+    success: list[bool],
+    task: str,
+    instruction: str,
+    image_size: int,
+    sim_state_width: int,
+    info: dict[str, Any],
+) -> Path:
+    """Write observed frames (env observations with images and an ``action``) as a one-episode shard.
+
+    Used for expert demonstrations (rendered from states) and for policy rollouts (rendered
+    while acting). The folder appears atomically: a LeRobot dataset, ``episode.mcap`` and
+    ``episode.json`` (``info`` plus the length).
+    """
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     out = Path(out_dir)
     tmp = out.with_name(f"{out.name}.tmp-{os.getpid()}")
     if tmp.exists():
         shutil.rmtree(tmp)
-    frames, success = render_frames(env, states, actions, final_state)
     dataset = LeRobotDataset.create(
         SHARD_REPO,
         fps=FPS,
