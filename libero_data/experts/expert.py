@@ -162,16 +162,8 @@ class Expert:
                 else:
                     raise _Budget
             failure = "goal not reached after the plan"
-            from libero_data.experts.skills.base import Skill
-
-            class _Wait(Skill):
-                name = "wait"
-
-                def run(self, c: Context):  # type: ignore[override]
-                    return (yield from c.motion.hold(cfg.tail_steps))
-
-            gen = _Wait().run(ctx)
-            for action in gen:
+            # Objects may still be settling (a drop into a basket): wait a little for the goal.
+            for action in ctx.motion.hold(cfg.tail_steps):
                 a = np.asarray(action, dtype=np.float32)
                 states.append(env.get_state())
                 actions.append(a)

@@ -177,9 +177,9 @@ def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot
 def _save_search(path: Path, record: dict[str, Any]) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.npz")
-    arrays = {k: v for k, v in record.items() if isinstance(v, np.ndarray)}
-    meta = {k: v for k, v in record.items() if not isinstance(v, np.ndarray)}
-    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
+    payload: dict[str, Any] = {k: v for k, v in record.items() if isinstance(v, np.ndarray)}
+    payload["meta"] = np.array(json.dumps({k: v for k, v in record.items() if not isinstance(v, np.ndarray)}))
+    np.savez(tmp, **payload)
     with tmp.open("rb") as f:
         os.fsync(f.fileno())
     tmp.replace(path)

@@ -165,11 +165,13 @@ def _check_videos(
 
     issues: list[Issue] = []
     template = info.get("video_path")
+    if keys and not template:
+        return [Issue("meta/info.json", "has video features but no video_path")]
     fps = float(info["fps"])
     cache: dict[str, list[float] | None] = {}
     for key in keys:
         for ep in episodes:
-            rel = template.format(
+            rel = str(template).format(
                 video_key=key,
                 chunk_index=ep[f"videos/{key}/chunk_index"],
                 file_index=ep[f"videos/{key}/file_index"],
@@ -183,12 +185,9 @@ def _check_videos(
                 try:
                     with av.open(str(path)) as container:
                         stream = container.streams.video[0]
-                        times = [
-                            float(p.pts * stream.time_base)
-                            for p in container.demux(stream)
-                            if p.pts is not None
-                        ]
-                    cache[rel] = sorted(times)
+                        base = float(stream.time_base or 0)
+                        stamps = [float(p.pts) * base for p in container.demux(stream) if p.pts is not None]
+                    cache[rel] = sorted(stamps)
                 except Exception as exc:
                     issues.append(Issue(rel, f"unreadable video ({type(exc).__name__}: {exc})"))
                     cache[rel] = None

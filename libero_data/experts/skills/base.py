@@ -118,7 +118,7 @@ def go_to_pose(ctx: Context, pos: np.ndarray, mat: np.ndarray, clearance: float 
     return (yield from ctx.motion.move(pos, mat, tol=0.01, max_steps=80))
 
 
-def turn_wrist(ctx: Context, angle: float, limit: float = 2.75) -> Actions:
+def turn_wrist(ctx: Context, angle: float, limit: float = 2.75) -> Generator[np.ndarray, None, float]:
     """Turn the held object about the vertical by ``angle`` (mod 2 pi), within the wrist's range.
 
     Of the equivalent turns, the one that keeps the last arm joint inside +-``limit`` rad is
