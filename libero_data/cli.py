@@ -402,7 +402,9 @@ def expert_report_cmd(
 @user_errors
 def card_cmd(
     suite: Annotated[str, typer.Option("--suite", "-s", help="Suite name.")],
-    report: Annotated[Path, typer.Option("--expert-report", help="expert_report.csv from `libero-data expert-report`.")],
+    report: Annotated[
+        Path, typer.Option("--expert-report", help="expert_report.csv from `libero-data expert-report`.")
+    ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Markdown file to write.")],
     episodes_per_task: Annotated[int, typer.Option("--episodes-per-task", "-n", min=1)] = 50,
     image_size: Annotated[int, typer.Option("--image-size", min=32, max=512)] = 128,

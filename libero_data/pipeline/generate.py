@@ -671,7 +671,14 @@ def _describe(
     return meta, bddl, card
 
 
-def suite_card(suite_name: str, rates: dict[str, tuple[int, int]], *, episodes_per_task: int = 50, image_size: int = 128, seed: int = 0) -> str:
+def suite_card(
+    suite_name: str,
+    rates: dict[str, tuple[int, int]],
+    *,
+    episodes_per_task: int = 50,
+    image_size: int = 128,
+    seed: int = 0,
+) -> str:
     """The card ``generate --suite`` writes with these settings, before any data exists.
 
     ``rates`` maps task names to (successes, attempts) of the expert (e.g. from
@@ -683,13 +690,27 @@ def suite_card(suite_name: str, rates: dict[str, tuple[int, int]], *, episodes_p
 
     suite = get_suite(suite_name)
     request = GenerateRequest(
-        suite=suite.name, tasks=tuple(t.index for t in suite.tasks), episodes_per_task=episodes_per_task,
-        image_size=image_size, seed=seed, repo_id=f"libero-data/{suite.name}",
+        suite=suite.name,
+        tasks=tuple(t.index for t in suite.tasks),
+        episodes_per_task=episodes_per_task,
+        image_size=image_size,
+        seed=seed,
+        repo_id=f"libero-data/{suite.name}",
     )
     tasks = []
     for task in suite.tasks:
         successes, attempts = rates.get(task.name, (0, 0))
-        tasks.append(CardTask(task.index, task.name, task.language, _formula(task.problem.goal), episodes_per_task, attempts, successes))
+        tasks.append(
+            CardTask(
+                task.index,
+                task.name,
+                task.language,
+                _formula(task.problem.goal),
+                episodes_per_task,
+                attempts,
+                successes,
+            )
+        )
     vers = versions()
     settings = {
         "suite": suite.name,

@@ -142,6 +142,26 @@ def turn_wrist(ctx: Context, angle: float, limit: float = 2.75) -> Generator[np.
     return chosen
 
 
+def upright(ctx: Context, height: float | None = None) -> Actions:
+    """Back to a top-down hand (after a drawer, door or side insertion), turned in free air.
+
+    The arm struggles to swing from a horizontal hand into a top-down one while reaching
+    for something else at the same time; this does the turn first, above the scene.
+    """
+    mat = ctx.scene.eef_mat()
+    if float(mat[:, 2] @ np.array([0.0, 0.0, -1.0])) > np.cos(np.deg2rad(25)):
+        return True
+    here = ctx.scene.eef_pos()
+    z = max(here[2], height if height is not None else here[2] + 0.08)
+    target = ctx.current_top_down()
+    yield from ctx.motion.move(np.array([here[0], here[1], z]), None, tol=0.015, max_steps=40)
+    return (
+        yield from ctx.motion.move(
+            np.array([here[0], here[1], z]), target, tol=0.02, rot_tol=0.1, max_steps=60
+        )
+    )
+
+
 def wait_until_still(ctx: Context, name: str, max_steps: int = 20, speed: float = 0.01) -> Actions:
     """Hold still until ``name`` has come to rest (after a drop or a failed grasp)."""
     for _ in range(max_steps):

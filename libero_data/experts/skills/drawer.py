@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from libero_data.experts.geometry import approach_frame
+from libero_data.experts.geometry import approach_frame, rotation_error
 from libero_data.experts.grasp import hand_collisions
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.articulation import Part, holds, part_of
@@ -53,17 +53,29 @@ class OpenDrawer(Skill):
         (region,) = self.args
         part = part_of(ctx, region)
         centre, out, bar = _handle(ctx, part)
-        pitch = np.deg2rad(0 + ctx.jitter(4))
-        mat = _grip_frame(out, bar, pitch, ctx.scene.eef_mat())
-        approach = mat[:, 2]
-        grip = centre + approach * 0.012
         ctx.motion.gripper = OPEN
         yield from lift(ctx, centre[2] + 0.06)
-        yield from ctx.motion.move(
-            grip - approach * 0.09 + np.array([0, 0, 0.02]), mat, tol=0.01, max_steps=150
-        )
+        # Level first (the fingers close on the handle from above and below); when the arm
+        # cannot turn that far here, tilt the hand down and try again.
+        for pitch_deg in (0.0, 30.0, 50.0):
+            pitch = np.deg2rad(pitch_deg + ctx.jitter(4))
+            mat = _grip_frame(out, bar, pitch, ctx.scene.eef_mat())
+            approach = mat[:, 2]
+            grip = centre + approach * 0.012
+            pre = grip - approach * 0.09 + np.array([0, 0, 0.02])
+            yield from ctx.motion.move(pre, mat, tol=0.01, max_steps=120)
+            off = float(np.linalg.norm(ctx.scene.eef_pos() - pre))
+            turn = float(np.linalg.norm(rotation_error(mat, ctx.scene.eef_mat())))
+            if off < 0.03 and turn < 0.3:
+                break
+        else:
+            raise SkillFailed(f"could not reach the handle of {region}")
         yield from ctx.motion.move(grip, mat, speed=0.1, tol=0.005, max_steps=60)
         yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=mat)
+        if ctx.scene.finger_opening() < 0.004:  # closed on nothing
+            yield from ctx.motion.set_gripper(OPEN, steps=6, mat=mat)
+            yield from ctx.motion.move(ctx.scene.eef_pos() + out * 0.06, mat, tol=0.02, max_steps=30)
+            raise SkillFailed(f"missed the handle of {region}")
         # Pull all the way out (against the stop): the most room in front of the cabinet.
         full = abs(part.joint.range[1] - part.joint.range[0])
         start = ctx.scene.eef_pos()

@@ -7,7 +7,15 @@ import numpy as np
 from libero_data.experts.geometry import yaw_of_closing
 from libero_data.experts.grasp import plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
-from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift, wait_until_still
+from libero_data.experts.skills.base import (
+    SKILLS,
+    Context,
+    Skill,
+    SkillFailed,
+    lift,
+    upright,
+    wait_until_still,
+)
 
 
 @SKILLS.register("pick")
@@ -31,6 +39,7 @@ class Pick(Skill):
         # Up to three tries; after a miss the grasps are planned again (the object may have
         # moved) and spots within 2 cm of a missed one are skipped.
         missed: list[np.ndarray] = []
+        yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12)
         for attempt in range(3):
             yield from wait_until_still(ctx, obj)
             grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
