@@ -47,7 +47,7 @@ def plan_top_down(
     spacing: float = 0.01,
     support: float | None = None,
     extra_obstacles: tuple[str, ...] = (),
-    max_points: int = 4000,
+    max_points: int = 2500,
     prefer: np.ndarray | None = None,
     stats: dict[str, int] | None = None,
     points: np.ndarray | None = None,
@@ -96,12 +96,15 @@ def plan_top_down(
         du_e, dv_e = everything[:, :2] @ u, everything[:, :2] @ v
         for c in centres:
             cu, cv = float(c @ u), float(c @ v)
+            in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
+            if in_line.sum() < 3:
+                reject("empty")
+                continue
+            top = float(obj[in_line, 2].max())
+            # Only what is near this closing line can touch the hand.
+            local = (np.abs(du_e - cu) < PALM_HALF[0] + 0.06) & (np.abs(dv_e - cv) < PALM_HALF[1] + 0.04)
+            du_l, dv_l, z_l = du_e[local], dv_e[local], everything[local, 2]
             for grasp_depth_goal in depths:
-                in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
-                if in_line.sum() < 3:
-                    reject("empty")
-                    continue
-                top = float(obj[in_line, 2].max())
                 z = max(top - grasp_depth_goal, floor + TIP_BELOW_SITE + 0.001)
                 if z > top - 0.003:
                     reject("shallow")
@@ -155,14 +158,14 @@ def plan_top_down(
                 mid = (lo_u + hi_u) / 2
                 gu = mid
                 # The fingers come down outside [lo_u, hi_u]: nothing may be there.
-                rel_u = du_e - gu
-                rel_v = np.abs(dv_e - cv)
+                rel_u = du_l - gu
+                rel_v = np.abs(dv_l - cv)
                 inner = MAX_OPENING / 2
                 in_fingers = (
                     (np.abs(rel_u) > width / 2 + 0.002)
                     & (np.abs(rel_u) < inner + FINGER_THICKNESS)
                     & (rel_v < FINGER_HALF_WIDTH)
-                    & (everything[:, 2] > z - TIP_BELOW_SITE)
+                    & (z_l > z - TIP_BELOW_SITE)
                 )
                 if in_fingers.any():
                     reject("fingers")
@@ -170,13 +173,13 @@ def plan_top_down(
                 in_palm = (
                     (np.abs(rel_u) < PALM_HALF[0])
                     & (rel_v < PALM_HALF[1])
-                    & (everything[:, 2] > z + FINGER_LENGTH)
+                    & (z_l > z + FINGER_LENGTH)
                 )
                 if in_palm.any():
                     reject("palm")
                     continue
                 # Clearance: distance from the finger volumes to the nearest other point.
-                band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (everything[:, 2] > z - TIP_BELOW_SITE)
+                band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (z_l > z - TIP_BELOW_SITE)
                 outside = band & (np.abs(rel_u) > inner + FINGER_THICKNESS)
                 clearance = 0.03
                 if outside.any():

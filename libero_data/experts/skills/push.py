@@ -6,19 +6,20 @@ import numpy as np
 
 from libero_data.bddl import Atom
 from libero_data.experts.geometry import top_down, wrap_half_turn, yaw_of_closing
-from libero_data.experts.grasp import hand_collisions
-from libero_data.experts.motion import CLOSE, Actions
+from libero_data.experts.grasp import TIP_BELOW_SITE, hand_collisions
+from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift
 
 
 @SKILLS.register("push")
 class Push(Skill):
-    """``push(obj, target)``: closed fingertips behind the object slide it to the target.
+    """``push(obj, target)``: closed finger tips, low behind the object, slide it to the target.
 
     Each stroke starts where the gripper fits behind the object (the hand turned across or
-    along the stroke, the stroke bent up to 60 degrees away from the straight line when
-    something stands in the way) and is re-aimed from where the object actually is.
-    Randomised: contact height and stroke length.
+    along the stroke, the stroke bent up to 70 degrees away from the straight line when
+    something stands in the way), pushes at the object's foot (a rim's slope would lift a
+    compliant arm over it) and is re-aimed from where the object actually is; a stroke that
+    did not move the object is not tried again. Randomised: stroke length, contact height.
     """
 
     name = "push"
@@ -28,38 +29,94 @@ class Push(Skill):
         scene = ctx.scene
         goal = scene.pos(target)[:2] if ctx.is_entity(target) else scene.site(target).pos[:2]
         atom = Atom("On", (obj, target))
+        if (yield from _drag(ctx, obj, goal, atom)):
+            return True
         ctx.motion.gripper = CLOSE
+        useless: set[tuple[float, float]] = set()
         for _ in range(8):
             if scene.env.holds(atom):
                 break
             body = scene.pos(obj)[:2]
             delta = goal - body
             dist = float(np.linalg.norm(delta))
-            stroke = _stroke(ctx, obj, delta / max(dist, 1e-9))
+            stroke = _stroke(ctx, obj, delta / max(dist, 1e-9), useless)
             if stroke is None:
                 raise SkillFailed(f"no room to push {obj}")
-            start, direction, mat = stroke
+            start, direction, mat, key = stroke
             along = float(direction @ delta)
             yield from lift(ctx, start[2] + 0.06)
             yield from ctx.motion.move(start + np.array([0, 0, 0.06]), mat, tol=0.01, max_steps=120)
             yield from ctx.motion.move(start, mat, speed=0.1, tol=0.006, max_steps=40)
-            length = min(max(along, 0.02), 0.15) + 0.01 + ctx.jitter(0.004)
-            # Aim a little below the start height: the rim's slope pushes a compliant arm up.
-            end = start + np.array([*(direction * length), -0.012])
+            length = min(max(along, 0.02), 0.15) + 0.015 + ctx.jitter(0.004)
+            # Aim a little below the start: pressing on the table keeps the tips at the foot.
+            end = start + np.array([*(direction * length), -0.03])
             yield from ctx.motion.move(end, mat, speed=0.1, tol=0.006, max_steps=80)
+            if np.linalg.norm(scene.pos(obj)[:2] - body) < 0.01:
+                useless.add(key)
         yield from lift(ctx, scene.eef_pos()[2] + 0.06)
         if not scene.env.holds(atom):
             raise SkillFailed(f"could not push {obj} onto {target}")
         return True
 
 
-def _stroke(ctx: Context, obj: str, ideal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Start point, direction and gripper orientation of a collision-free stroke."""
+def _drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions:
+    """Hold the object's rim between the fingers and slide it along the table.
+
+    Pushing a plate's sloped rim with the finger tips lifts the compliant arm over it; with
+    the rim between the pads the push is along the pads' normals. Only rim holds whose
+    fingers close along the way to go are used. False (nothing done) when none fits.
+    """
+    from libero_data.experts.grasp import plan_top_down
+
+    scene = ctx.scene
+    body = scene.pos(obj)[:2]
+    way = goal - body
+    if np.linalg.norm(way) < 1e-6:
+        return True
+    way = way / np.linalg.norm(way)
+    grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), depth=(0.008, 0.012))
+    def along_way(g) -> bool:
+        offset = g.pos[:2] - body
+        radial = offset / max(float(np.linalg.norm(offset)), 1e-9)
+        aligned = np.cos(np.deg2rad(25))
+        return abs(float(g.mat[:2, 0] @ way)) > aligned and abs(float(radial @ way)) > aligned
+
+    usable = [g for g in grasps if along_way(g)]
+    if not usable:
+        return False
+    grasp = usable[0]
+    yield from lift(ctx, grasp.pos[2] + 0.08)
+    ctx.motion.gripper = OPEN
+    yield from ctx.motion.move(grasp.pos + np.array([0, 0, 0.06]), grasp.mat, tol=0.01, max_steps=120)
+    yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.08, tol=0.005, max_steps=50)
+    yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=grasp.mat)
+    if not scene.grasped(obj):
+        yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
+        yield from lift(ctx, grasp.pos[2] + 0.06)
+        return False
+    # Slide, closed loop on where the object is, until the goal holds.
+    for _ in range(12):
+        if scene.env.holds(atom):
+            break
+        body = scene.pos(obj)[:2]
+        error = goal - body
+        here = scene.eef_pos()
+        step = error if np.linalg.norm(error) < 0.05 else error / np.linalg.norm(error) * 0.05
+        target = np.array([here[0] + step[0], here[1] + step[1], grasp.pos[2]])
+        yield from ctx.motion.move(target, grasp.mat, speed=0.08, tol=0.004, max_steps=20)
+    yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
+    yield from lift(ctx, scene.eef_pos()[2] + 0.06)
+    return bool(scene.env.holds(atom))
+
+
+def _stroke(
+    ctx: Context, obj: str, ideal: np.ndarray, useless: set[tuple[float, float]]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[float, float]] | None:
+    """Start point, direction, gripper orientation (and a key) of a collision-free stroke."""
     scene = ctx.scene
     pts = scene.points(obj)
     body = scene.pos(obj)[:2]
-    top = float(pts[:, 2].max())
-    z = max(top - 0.008 + ctx.jitter(0.002), ctx.table_height() + 0.014)
+    z = ctx.table_height() + TIP_BELOW_SITE + 0.004 + ctx.jitter(0.001)
     others = scene.obstacle_points(exclude=(obj,))
     near = np.linalg.norm(others[:, :2] - body, axis=1) < 0.35
     others = others[near]
@@ -72,7 +129,10 @@ def _stroke(ctx: Context, obj: str, ideal: np.ndarray) -> tuple[np.ndarray, np.n
         for standoff in (0.022, 0.045):
             start = np.array([*(body - direction * (back + standoff)), z])
             for turn in (np.pi / 2, np.pi / 4, -np.pi / 4, 0.0):
+                key = (round(bend, 2), round(turn, 2))
+                if key in useless:
+                    continue
                 mat = top_down(wrap_half_turn(yaw + turn, now))
                 if hand_collisions(others, start, mat) == 0 and hand_collisions(pts, start, mat) == 0:
-                    return start, direction, mat
+                    return start, direction, mat, key
     return None
