@@ -95,12 +95,13 @@ class OpenDrawer(Skill):
 
 def _free_push_pose(
     ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, bar: np.ndarray
-) -> np.ndarray | None:
-    """A gripper orientation that can push the handle home without hitting anything.
+) -> tuple[np.ndarray, float] | None:
+    """A gripper orientation that can push the handle home, and how far it can push it.
 
     Tilts from nearly horizontal (finger tips lead) to nearly vertical, fingers side by side
-    along the handle or across it, are checked against the scene's points along the whole
-    push (the drawer itself excluded: it moves with the push).
+    along the handle or across it, are checked against the scene's points at the stand-off
+    and along the push (the drawer and what lies in it excluded: they move with the push).
+    The pose that gets furthest wins; a partial push is finished by another pose later.
     """
     scene = ctx.scene
     drawer = tuple(scene.subtree(scene.body_id(part.joint.body)))
@@ -110,8 +111,9 @@ def _free_push_pose(
     near = np.linalg.norm(points[:, :2] - centre[:2], axis=1) < 0.45
     points = points[near]
     travel = abs(part.opened_by(ctx))
-    path = [centre - out * d for d in np.linspace(0.0, travel, 6)]
+    steps = np.linspace(0.0, travel, 8)
     now = scene.eef_mat()
+    best: tuple[np.ndarray, float] | None = None
     for pitch_deg in (8, 25, 40, 55, 70, 82):
         pitch = np.deg2rad(pitch_deg + ctx.jitter(3))
         approach = -out * np.cos(pitch) + np.array([0.0, 0.0, -1.0]) * np.sin(pitch)
@@ -120,9 +122,19 @@ def _free_push_pose(
             closing = closing if closing @ now[:, 0] >= 0 else -closing
             mat = approach_frame(approach, closing)
             # The finger tips touch the handle's front face: the grip site sits a little behind.
-            if all(hand_collisions(points, p - approach * 0.012, mat, margin=0.004) == 0 for p in path):
-                return mat
-    return None
+            standoff = centre - approach * 0.08
+            if hand_collisions(points, standoff, mat, margin=0.004):
+                continue
+            reach = 0.0
+            for d in steps:
+                if hand_collisions(points, centre - out * d - approach * 0.012, mat, margin=0.004):
+                    break
+                reach = float(d)
+            if reach >= travel - 1e-6:
+                return mat, reach
+            if reach > 0.02 and (best is None or reach > best[1]):
+                best = (mat, reach)
+    return best
 
 
 @SKILLS.register("close_drawer")
@@ -138,25 +150,30 @@ class CloseDrawer(Skill):
     def run(self, ctx: Context) -> Actions:
         (region,) = self.args
         part = part_of(ctx, region)
-        centre, out, bar = _handle(ctx, part)
-        found = _free_push_pose(ctx, part, centre, out, bar)
-        if found is None:
-            raise SkillFailed(f"no room to push {region} shut")
-        mat = found
-        approach = mat[:, 2]
         ctx.motion.gripper = CLOSE
-        push_at = centre + np.array([0, 0, ctx.jitter(0.003)]) - approach * 0.012
-        yield from go_to_pose(ctx, push_at - approach * 0.07, mat)
-        yield from ctx.motion.move(push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60)
-        for _ in range(3):
+        for _phase in range(3):
             if holds(ctx, "Close", region):
                 break
-            remaining = abs(part.opened_by(ctx)) + 0.02
-            here = ctx.scene.eef_pos()
-            yield from ctx.motion.move(here - out * remaining, mat, speed=0.15, tol=0.008, max_steps=60)
-        yield from ctx.motion.move(
-            ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.03]), mat, tol=0.02, max_steps=30
-        )
+            centre, out, bar = _handle(ctx, part)
+            found = _free_push_pose(ctx, part, centre, out, bar)
+            if found is None:
+                raise SkillFailed(f"no room to push {region} shut")
+            mat, reach = found
+            approach = mat[:, 2]
+            push_at = centre + np.array([0, 0, ctx.jitter(0.003)]) - approach * 0.012
+            yield from go_to_pose(ctx, push_at - approach * 0.07, mat)
+            yield from ctx.motion.move(push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60)
+            full = reach >= abs(part.opened_by(ctx)) - 1e-6
+            goal = push_at - out * (reach + (0.02 if full else 0.0))
+            for _ in range(3):
+                if holds(ctx, "Close", region):
+                    break
+                yield from ctx.motion.move(goal, mat, speed=0.15, tol=0.008, max_steps=60)
+                if np.linalg.norm(ctx.scene.eef_pos() - goal) < 0.012:
+                    break
+            yield from ctx.motion.move(
+                ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.03]), mat, tol=0.02, max_steps=30
+            )
         if not holds(ctx, "Close", region):
             raise SkillFailed(f"{region} did not close")
         return True
