@@ -13,10 +13,13 @@ def steps(ref: str, **kw) -> list[str]:
 
 def test_pick_and_place() -> None:
     assert steps("libero_object/0") == [
-        "pick(alphabet_soup_1)",
+        "pick(alphabet_soup_1, basket_1_contain_region)",
         "place_in(alphabet_soup_1, basket_1_contain_region)",
     ]
-    assert steps("libero_spatial/3") == ["pick(akita_black_bowl_1)", "place_on(akita_black_bowl_1, plate_1)"]
+    assert steps("libero_spatial/3") == [
+        "pick(akita_black_bowl_1, plate_1)",
+        "place_on(akita_black_bowl_1, plate_1)",
+    ]
 
 
 def test_closed_drawer_is_opened_first_and_closed_after() -> None:
@@ -26,19 +29,19 @@ def test_closed_drawer_is_opened_first_and_closed_after() -> None:
     out = steps("libero_10/3", joint_kind=kind.get, is_open=lambda r: False)
     assert out == [
         f"open_drawer({drawer})",
-        "pick(akita_black_bowl_1)",
+        f"pick(akita_black_bowl_1, {drawer})",
         f"place_in(akita_black_bowl_1, {drawer})",
         f"close_drawer({drawer})",
     ]
     # An open drawer is not opened again.
-    assert steps("libero_10/3", joint_kind=kind.get, is_open=lambda r: True)[0] == "pick(akita_black_bowl_1)"
+    assert steps("libero_10/3", joint_kind=kind.get, is_open=lambda r: True)[0] == f"pick(akita_black_bowl_1, {drawer})"
 
 
 def test_stove_is_turned_on_before_the_pot_goes_on_it() -> None:
     out = steps("libero_10/2")  # turn on the stove and put the moka pot on it
     assert out == [
         "turn_on(flat_stove_1)",
-        "pick(moka_pot_1)",
+        "pick(moka_pot_1, flat_stove_1_cook_region)",
         "place_on(moka_pot_1, flat_stove_1_cook_region)",
     ]
 

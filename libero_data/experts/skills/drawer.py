@@ -93,15 +93,15 @@ class OpenDrawer(Skill):
         return True
 
 
-def _free_push_pose(
+def _free_push_poses(
     ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, bar: np.ndarray
-) -> tuple[np.ndarray, float] | None:
+) -> list[tuple[np.ndarray, float]]:
     """A gripper orientation that can push the handle home, and how far it can push it.
 
     Tilts from nearly horizontal (finger tips lead) to nearly vertical, fingers side by side
     along the handle or across it, are checked against the scene's points at the stand-off
     and along the push (the drawer and what lies in it excluded: they move with the push).
-    The pose that gets furthest wins; a partial push is finished by another pose later.
+    Poses that get furthest come first (a partial push is finished by another pose later).
     """
     scene = ctx.scene
     drawer = tuple(scene.subtree(scene.body_id(part.joint.body)))
@@ -110,10 +110,12 @@ def _free_push_pose(
     points = scene.obstacle_points(exclude=riding, exclude_bodies=drawer)
     near = np.linalg.norm(points[:, :2] - centre[:2], axis=1) < 0.45
     points = points[near]
+    # They move with the hand during the push, so they matter where the push starts.
+    aboard = np.concatenate([scene.points(o) for o in riding]) if riding else np.zeros((0, 3))
     travel = abs(part.opened_by(ctx))
     steps = np.linspace(0.0, travel, 8)
     now = scene.eef_mat()
-    best: tuple[np.ndarray, float] | None = None
+    found: list[tuple[np.ndarray, float]] = []
     for pitch_deg in (8, 25, 40, 55, 70, 82):
         pitch = np.deg2rad(pitch_deg + ctx.jitter(3))
         approach = -out * np.cos(pitch) + np.array([0.0, 0.0, -1.0]) * np.sin(pitch)
@@ -125,16 +127,17 @@ def _free_push_pose(
             standoff = centre - approach * 0.08
             if hand_collisions(points, standoff, mat, margin=0.004):
                 continue
+            if len(aboard) and hand_collisions(aboard, centre - approach * 0.012, mat, margin=0.006):
+                continue
             reach = 0.0
             for d in steps:
                 if hand_collisions(points, centre - out * d - approach * 0.012, mat, margin=0.004):
                     break
                 reach = float(d)
-            if reach >= travel - 1e-6:
-                return mat, reach
-            if reach > 0.02 and (best is None or reach > best[1]):
-                best = (mat, reach)
-    return best
+            if reach > 0.02 or reach >= travel - 1e-6:
+                found.append((mat, reach))
+    found.sort(key=lambda f: -f[1])  # stable: among equals, the flatter tilt first
+    return found
 
 
 @SKILLS.register("close_drawer")
@@ -155,14 +158,19 @@ class CloseDrawer(Skill):
             if holds(ctx, "Close", region):
                 break
             centre, out, bar = _handle(ctx, part)
-            found = _free_push_pose(ctx, part, centre, out, bar)
-            if found is None:
+            poses = _free_push_poses(ctx, part, centre, out, bar)
+            if not poses:
                 raise SkillFailed(f"no room to push {region} shut")
-            mat, reach = found
-            approach = mat[:, 2]
-            push_at = centre + np.array([0, 0, ctx.jitter(0.003)]) - approach * 0.012
-            yield from go_to_pose(ctx, push_at - approach * 0.07, mat)
-            yield from ctx.motion.move(push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60)
+            # The arm cannot take every pose at every place (joint limits): try in turn.
+            for mat, reach in poses[:4]:
+                approach = mat[:, 2]
+                push_at = centre + np.array([0, 0, ctx.jitter(0.003)]) - approach * 0.012
+                yield from go_to_pose(ctx, push_at - approach * 0.07, mat)
+                yield from ctx.motion.move(push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60)
+                if np.linalg.norm(ctx.scene.eef_pos() - (push_at - approach * 0.01)) < 0.02:
+                    break
+            else:
+                raise SkillFailed(f"could not reach the handle of {region}")
             full = reach >= abs(part.opened_by(ctx)) - 1e-6
             goal = push_at - out * (reach + (0.02 if full else 0.0))
             for _ in range(3):
