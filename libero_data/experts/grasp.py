@@ -170,11 +170,7 @@ def plan_top_down(
                 if in_fingers.any():
                     reject("fingers")
                     continue
-                in_palm = (
-                    (np.abs(rel_u) < PALM_HALF[0])
-                    & (rel_v < PALM_HALF[1])
-                    & (z_l > z + FINGER_LENGTH)
-                )
+                in_palm = (np.abs(rel_u) < PALM_HALF[0]) & (rel_v < PALM_HALF[1]) & (z_l > z + FINGER_LENGTH)
                 if in_palm.any():
                     reject("palm")
                     continue

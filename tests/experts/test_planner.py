@@ -34,7 +34,10 @@ def test_closed_drawer_is_opened_first_and_closed_after() -> None:
         f"close_drawer({drawer})",
     ]
     # An open drawer is not opened again.
-    assert steps("libero_10/3", joint_kind=kind.get, is_open=lambda r: True)[0] == f"pick(akita_black_bowl_1, {drawer})"
+    assert (
+        steps("libero_10/3", joint_kind=kind.get, is_open=lambda r: True)[0]
+        == f"pick(akita_black_bowl_1, {drawer})"
+    )
 
 
 def test_stove_is_turned_on_before_the_pot_goes_on_it() -> None:

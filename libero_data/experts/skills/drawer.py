@@ -162,11 +162,13 @@ class CloseDrawer(Skill):
             if not poses:
                 raise SkillFailed(f"no room to push {region} shut")
             # The arm cannot take every pose at every place (joint limits): try in turn.
-            for mat, reach in poses[:4]:
+            for mat, reach in poses[:4]:  # noqa: B007 (the pose that reached is used below)
                 approach = mat[:, 2]
                 push_at = centre + np.array([0, 0, ctx.jitter(0.003)]) - approach * 0.012
                 yield from go_to_pose(ctx, push_at - approach * 0.07, mat)
-                yield from ctx.motion.move(push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60)
+                yield from ctx.motion.move(
+                    push_at - approach * 0.01, mat, speed=0.15, tol=0.008, max_steps=60
+                )
                 if np.linalg.norm(ctx.scene.eef_pos() - (push_at - approach * 0.01)) < 0.02:
                     break
             else:

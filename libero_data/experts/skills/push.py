@@ -75,6 +75,7 @@ def _drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions:
         return True
     way = way / np.linalg.norm(way)
     grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), depth=(0.008, 0.012))
+
     def along_way(g) -> bool:
         offset = g.pos[:2] - body
         radial = offset / max(float(np.linalg.norm(offset)), 1e-9)
