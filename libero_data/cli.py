@@ -333,6 +333,14 @@ def expert_report_cmd(
     suite: Annotated[
         list[str] | None, typer.Option("--suite", "-s", help="Suite(s) to measure; default: the five suites.")
     ] = None,
+    tasks: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--tasks",
+            "-t",
+            help="Task indices or names within the suite (one --suite only; repeat or comma-separate).",
+        ),
+    ] = None,
     inits: Annotated[
         int, typer.Option("--inits", help="Stored init states per task (the first N).", min=1, max=50)
     ] = 50,
@@ -343,10 +351,20 @@ def expert_report_cmd(
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Folder for expert_report.csv and expert_report.md.")
     ] = Path("."),
+    fresh: Annotated[
+        bool,
+        typer.Option(
+            "--fresh",
+            help="Start over instead of resuming the report already in --out (expert_report.jsonl).",
+        ),
+    ] = False,
 ) -> None:
-    """Measure the scripted expert's success rate per task over its stored init states."""
-    import time
+    """Measure the scripted expert's success rate per task over its stored init states.
 
+    Every finished task is journalled in OUT/expert_report.jsonl; stop at any time and run
+    the same command again to measure only the tasks still missing. The tables
+    (expert_report.csv / .md) are rewritten after every task.
+    """
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -356,13 +374,51 @@ def expert_report_cmd(
         TimeRemainingColumn,
     )
 
-    from libero_data.experts.report import run_report, summarise, write_report
+    from libero_data.experts.expert import ExpertConfig
+    from libero_data.experts.report import (
+        ReportJournal,
+        expert_fingerprint,
+        run_report,
+        summarise,
+        write_report,
+    )
     from libero_data.pipeline.generate import versions
     from libero_data.tasks import SUITE_NAMES, get_suite
 
     names = [n for item in (suite or list(SUITE_NAMES[:5])) for n in item.split(",") if n]
-    refs = [t.id for name in names for t in get_suite(name).tasks]
-    start = time.monotonic()
+    if tasks:
+        if len(names) != 1:
+            raise typer.BadParameter("--tasks needs exactly one --suite", param_hint="--tasks")
+        chosen = get_suite(names[0])
+        refs = list(dict.fromkeys(chosen.task(t).id for item in tasks for t in item.split(",") if t))
+    else:
+        refs = [t.id for name in names for t in get_suite(name).tasks]
+    config = ExpertConfig()
+    settings: dict[str, object] = {
+        "inits": inits,
+        "seed": seed,
+        "expert": expert_fingerprint(),
+        "config": repr(config),
+        "versions": versions(),
+    }
+    journal = ReportJournal(out, settings, fresh=fresh)
+    todo = [r for r in refs if r not in journal.done]
+
+    def rows() -> list:
+        return [journal.done[r] for r in refs if r in journal.done]
+
+    def meta() -> dict[str, str]:
+        have = rows()
+        m = {
+            "inits per task": str(inits),
+            "seed": str(seed),
+            "expert code": str(settings["expert"]),
+            "tasks measured": f"{len(have)} of {len(refs)}",
+            "episode-minutes": f"{sum(r.seconds_per_episode * r.episodes for r in have) / 60:.0f}",
+        }
+        m.update({f"version {k}": v for k, v in versions().items()})
+        return m
+
     columns = [
         TextColumn("{task.description}"),
         BarColumn(),
@@ -371,24 +427,22 @@ def expert_report_cmd(
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     ]
-    with Progress(*columns, console=_console(stderr=True)) as bar:
-        job = bar.add_task("tasks", total=len(refs), last="")
-        results = run_report(
-            refs,
-            inits,
-            seed=seed,
-            workers=workers,
-            on_task=lambda r: bar.update(
-                job, advance=1, last=f"{r.suite}/{r.index}: {r.successes}/{r.episodes}"
-            ),
+    if len(todo) < len(refs):
+        _console(stderr=True).print(
+            f"resuming: {len(refs) - len(todo)} of {len(refs)} tasks already measured in {journal.path}",
+            markup=False,
         )
-    meta = {
-        "inits per task": str(inits),
-        "seed": str(seed),
-        "minutes": f"{(time.monotonic() - start) / 60:.1f}",
-    }
-    meta.update({f"version {k}": v for k, v in versions().items()})
-    csv_path, md_path = write_report(results, out, meta=meta)
+
+    def finished(ref: str, result) -> None:
+        journal.add(ref, result)
+        write_report(rows(), out, meta=meta())
+        bar.update(job, advance=1, last=f"{ref}: {result.successes}/{result.episodes}")
+
+    with Progress(*columns, console=_console(stderr=True)) as bar:
+        job = bar.add_task("tasks", total=len(refs), completed=len(refs) - len(todo), last="")
+        run_report(todo, inits, seed=seed, workers=workers, config=config, on_task=finished)
+    results = rows()
+    csv_path, md_path = write_report(results, out, meta=meta())
     console = _console()
     for name, s in summarise(results).items():
         console.print(

@@ -8,7 +8,10 @@ Markdown by :func:`write_report`.
 from __future__ import annotations
 
 import csv
+import hashlib
+import json
 import logging
+import os
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -112,6 +115,78 @@ def evaluate_task(
     )
 
 
+def expert_fingerprint() -> str:
+    """A short hash of the code that decides an episode (expert and simulator sources).
+
+    A resumed report only keeps rows measured by the same code.
+    """
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for sub in ("experts", "sim"):
+        for path in sorted((root / sub).rglob("*.py")):
+            digest.update(path.relative_to(root).as_posix().encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+class ReportJournal:
+    """``expert_report.jsonl``: a settings header, then one line per finished task.
+
+    Each line is written and synced as its task finishes, so an interrupted report keeps
+    every finished task; running the same command again measures only the rest.
+    """
+
+    NAME = "expert_report.jsonl"
+
+    def __init__(self, out_dir: str | Path, settings: dict[str, object], *, fresh: bool = False) -> None:
+        self.path = Path(out_dir) / self.NAME
+        self.settings = settings
+        self.done: dict[str, TaskResult] = {}
+        if self.path.exists() and not fresh:
+            self._load()
+        else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._write_lines([json.dumps({"settings": settings})], mode="w")
+
+    def _load(self) -> None:
+        lines = self.path.read_text().splitlines()
+        try:
+            header = json.loads(lines[0])["settings"] if lines else None
+        except (json.JSONDecodeError, KeyError, TypeError):
+            header = None
+        if header is None:
+            raise ValueError(f"{self.path} is not an expert report journal; pass --fresh to start over")
+        if header != self.settings:
+            changed = sorted(
+                k for k in set(header) | set(self.settings) if header.get(k) != self.settings.get(k)
+            )
+            raise ValueError(
+                f"{self.path} was measured with different settings ({', '.join(changed)}); "
+                "pass --fresh to start over or use another --out"
+            )
+        for line in lines[1:]:
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # a line cut by a kill: that task is measured again
+            ref = row.pop("ref")
+            self.done[ref] = TaskResult(**row)
+        text = self.path.read_text()
+        if not text.endswith("\n"):  # drop the cut line so the next one starts on its own
+            self.path.write_text(text[: text.rfind("\n") + 1])
+
+    def _write_lines(self, lines: list[str], mode: str = "a") -> None:
+        with self.path.open(mode) as f:
+            for line in lines:
+                f.write(line + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+    def add(self, ref: str, result: TaskResult) -> None:
+        self._write_lines([json.dumps({"ref": ref, **asdict(result)})])
+        self.done[ref] = result
+
+
 def _reason(text: str | None) -> str:
     """Failure messages without object names, so they group."""
     if not text:
@@ -120,12 +195,10 @@ def _reason(text: str | None) -> str:
     return " ".join(words)[:60] or text[:60]
 
 
-def _worker(args: tuple[str, int, int, ExpertConfig]) -> TaskResult:
-    import os
-
+def _worker(args: tuple[str, int, int, ExpertConfig]) -> tuple[str, TaskResult]:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     ref, inits, seed, config = args
-    return evaluate_task(ref, inits, seed=seed, config=config)
+    return ref, evaluate_task(ref, inits, seed=seed, config=config)
 
 
 def run_report(
@@ -135,27 +208,30 @@ def run_report(
     seed: int = 0,
     workers: int = 1,
     config: ExpertConfig | None = None,
-    on_task: Callable[[TaskResult], None] | None = None,
+    on_task: Callable[[str, TaskResult], None] | None = None,
 ) -> list[TaskResult]:
-    """Evaluate many tasks, in ``workers`` processes; results in the order given."""
+    """Evaluate many tasks, in ``workers`` processes; results in the order given.
+
+    ``on_task`` is called as each task finishes (in finishing order).
+    """
     refs = list(task_refs)
     config = config or ExpertConfig()
     jobs = [(ref, inits, seed, config) for ref in refs]
     results: dict[str, TaskResult] = {}
     if workers <= 1:
         for job in jobs:
-            result = _worker(job)
-            results[job[0]] = result
+            ref, result = _worker(job)
+            results[ref] = result
             if on_task:
-                on_task(result)
+                on_task(ref, result)
     else:
         import multiprocessing as mp
 
         with mp.get_context("spawn").Pool(workers, maxtasksperchild=4) as pool:
-            for ref, result in zip(refs, pool.imap(_worker, jobs), strict=True):
+            for ref, result in pool.imap_unordered(_worker, jobs):
                 results[ref] = result
                 if on_task:
-                    on_task(result)
+                    on_task(ref, result)
     return [results[r] for r in refs]
 
 

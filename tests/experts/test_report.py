@@ -1,0 +1,69 @@
+"""``libero-data expert-report``: the table, and resuming a report that was stopped."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from libero_data.experts.report import ReportJournal, TaskResult
+
+
+def cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "libero_data.cli", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+def result(index: int, successes: int = 1) -> TaskResult:
+    return TaskResult("libero_goal", index, f"task_{index}", 2, successes, 100.0, 1.0, {})
+
+
+def test_journal_keeps_finished_tasks_and_drops_a_cut_line(tmp_path: Path) -> None:
+    settings = {"inits": 2, "seed": 0, "expert": "abc"}
+    journal = ReportJournal(tmp_path, settings)
+    journal.add("libero_goal/0", result(0))
+    journal.add("libero_goal/1", result(1, successes=2))
+    with journal.path.open("a") as f:
+        f.write('{"ref": "libero_goal/2", "suite": "lib')  # a kill in the middle of a line
+    again = ReportJournal(tmp_path, settings)
+    assert list(again.done) == ["libero_goal/0", "libero_goal/1"]
+    again.add("libero_goal/2", result(2))
+    assert list(ReportJournal(tmp_path, settings).done) == ["libero_goal/0", "libero_goal/1", "libero_goal/2"]
+    assert again.done["libero_goal/1"].successes == 2
+
+
+def test_journal_refuses_other_settings(tmp_path: Path) -> None:
+    ReportJournal(tmp_path, {"inits": 2, "seed": 0, "expert": "abc"}).add("libero_goal/0", result(0))
+    with pytest.raises(ValueError, match=r"different settings \(expert\)"):
+        ReportJournal(tmp_path, {"inits": 2, "seed": 0, "expert": "xyz"})
+    fresh = ReportJournal(tmp_path, {"inits": 2, "seed": 0, "expert": "xyz"}, fresh=True)
+    assert fresh.done == {}
+
+
+@pytest.mark.sim
+def test_expert_report_writes_tables_and_resumes(tmp_path: Path) -> None:
+    args = ["expert-report", "--suite", "libero_goal", "--tasks", "7", "--inits", "1", "--out", str(tmp_path)]
+    first = cli(*args)
+    assert first.returncode == 0, first.stderr[-2000:]
+    rows = list(csv.DictReader((tmp_path / "expert_report.csv").open()))
+    assert [(r["suite"], r["index"], r["episodes"]) for r in rows] == [("libero_goal", "7", "1")]
+    assert rows[0]["successes"] == "1"  # turn on the stove
+    assert "libero_goal/7" in (tmp_path / "expert_report.md").read_text()
+
+    # Run again: nothing is measured twice.
+    second = cli(*args)
+    assert second.returncode == 0, second.stderr[-2000:]
+    assert "resuming: 1 of 1 tasks already measured" in second.stderr
+    lines = (tmp_path / "expert_report.jsonl").read_text().splitlines()
+    assert len(lines) == 2 and json.loads(lines[1])["ref"] == "libero_goal/7"
+
+    # Other settings in the same folder: one sentence, exit 2.
+    other = cli(*args[:-2], "--seed", "5", "--out", str(tmp_path))
+    assert other.returncode == 2
+    assert "different settings (seed)" in other.stderr
+    assert "Traceback" not in other.stderr
