@@ -36,6 +36,7 @@ class TrainPreset:
     eval_every: int = 5  # epochs; epoch 0 (before training) is evaluated too
     eval_rollouts: int = 20
     eval_max_steps: int = 600
+    eval_settle: int = 10  # no-op steps after reset before the policy acts (LIBERO waits too)
     keep_best: bool = True  # keep the checkpoint with the best success while learning a task
     demos_per_task: int | None = None  # None: all demonstrations of the task
     seed: int = 10000
@@ -53,6 +54,12 @@ class TrainPreset:
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 self._fail(field, "must be a positive integer")
+        if (
+            isinstance(self.eval_settle, bool)
+            or not isinstance(self.eval_settle, int)
+            or self.eval_settle < 0
+        ):
+            self._fail("eval_settle", "must be a non-negative integer")
         if self.demos_per_task is not None and self.demos_per_task <= 0:
             self._fail("demos_per_task", "must be positive or None")
         if not 0 < self.lr_min <= self.lr:
@@ -107,12 +114,12 @@ SMOKE = TrainPreset(
     epochs=2,
     batch_size=8,
     window=10,
-    image_size=128,
+    image_size=64,  # rendering costs the same per frame; the small images make CPU training fast
     policy_size="smoke",
     algo_size="smoke",
     eval_every=1,
     eval_rollouts=2,
-    eval_max_steps=60,
+    eval_max_steps=40,
     demos_per_task=2,
     seed=0,
 )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 from pathlib import Path
@@ -41,3 +42,15 @@ def run_notebook(path: Path, tmp_path: Path) -> None:
 def test_quickstart(tmp_path: Path) -> None:
     run_notebook(NOTEBOOKS / "01_quickstart.ipynb", tmp_path)
     assert (tmp_path / "quickstart" / "meta" / "info.json").is_file()
+
+
+@pytest.mark.sim
+def test_lifelong_benchmark(tmp_path: Path, tiny_dataset: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the session's tiny dataset instead of generating one, and a shorter run
+    monkeypatch.setenv("LIBERO_BENCH_NOTEBOOK_DATA", str(tiny_dataset))
+    monkeypatch.setenv("LIBERO_BENCH_NOTEBOOK_QUICK", "1")
+    run_notebook(NOTEBOOKS / "02_lifelong_benchmark.ipynb", tmp_path)
+    run = tmp_path / "run-er-resnet_t"
+    assert json.loads((run / "results.json").read_text())["complete"]
+    report = json.loads((run / "report" / "report.json").read_text())
+    assert [g["label"] for g in report["groups"]] == ["er + resnet_t"]

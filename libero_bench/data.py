@@ -1,0 +1,453 @@
+"""Training data: windows of consecutive frames from a libero-data LeRobot dataset.
+
+A :class:`DemoDataset` is the dataset on disk (read through lerobot: metadata, the parquet
+columns and the per-episode videos) with its task list and which episodes belong to which
+task. A :class:`WindowDataset` turns the episodes of one or more tasks into training
+samples: every window of ``T`` consecutive frames that lies inside one episode (starts
+``0 .. length - T``), with both cameras, joint and gripper states, actions, the task's
+language embedding and the task's id in the run.
+
+Each episode's two videos are decoded **once**, as a whole, and kept as uint8 tensors
+(``N, 3, H, W``) for the life of the :class:`WindowDataset`; samples are slices of that
+cache. Memory per 1,000 cached frames (two cameras, ``2 * 3 * H * W`` bytes per frame):
+~98 MB at 128x128, ~25 MB at 64x64 (low-dimensional columns add ~64 kB). A LIBERO-10 task
+(50 demonstrations of ~300 frames) is ~1.5 GB at 128x128; training on all of LIBERO-90 at
+once (MTL) would need ~66 GB.
+
+Worker processes: :meth:`WindowDataset.preload` decodes everything in the calling process;
+DataLoader workers then share the cache (fork, copy-on-write) and never decode.
+``worker_init`` (passed by :func:`make_loader`) sets one thread per worker and clears
+lerobot's module-level video decoder cache, whose open file handles do not survive a fork.
+With ``multiprocessing_context="spawn"`` the cache is pickled into every worker instead.
+
+Batches come out of :func:`batch_to_device` (or :class:`TaskLoader`) as float32 images in
+[0, 1], channels first: ``(B, T, 3, H, W)``, with the keys of
+:mod:`libero_bench.batch_keys`. Images travel between processes as uint8 (4x less IPC).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from libero_bench.batch_keys import (
+    ACTIONS,
+    AGENTVIEW,
+    GRIPPER_STATES,
+    IMAGE_KEYS,
+    JOINT_STATES,
+    TASK_EMB,
+    TASK_ID,
+    WRIST,
+)
+
+if TYPE_CHECKING:
+    import torch
+    from torch.utils.data import DataLoader
+
+logger = logging.getLogger(__name__)
+
+# dataset feature keys (libero_data.record.features; repeated here to keep this import light)
+OBS_IMAGE = "observation.images.image"
+OBS_WRIST_IMAGE = "observation.images.wrist_image"
+OBS_JOINTS = "observation.joint_positions"
+OBS_GRIPPER = "observation.gripper_state"
+ACTION = "action"
+CAMERA_FEATURES = {AGENTVIEW: OBS_IMAGE, WRIST: OBS_WRIST_IMAGE}
+LOWDIM_FEATURES = {JOINT_STATES: OBS_JOINTS, GRIPPER_STATES: OBS_GRIPPER, ACTIONS: ACTION}
+REQUIRED_FEATURES = (OBS_IMAGE, OBS_WRIST_IMAGE, OBS_JOINTS, OBS_GRIPPER, ACTION)
+
+
+@dataclass(frozen=True)
+class DemoTask:
+    """One task of a dataset: its name, instruction, suite and episodes (dataset indices)."""
+
+    name: str
+    language: str
+    suite: str
+    suite_index: int | None
+    episodes: tuple[int, ...]
+
+
+class EpisodeFrames(NamedTuple):
+    """One decoded episode: uint8 images (N, 3, H, W) and float32 low-dim arrays (N, D)."""
+
+    agentview: torch.Tensor
+    wrist: torch.Tensor
+    joint_states: np.ndarray
+    gripper_states: np.ndarray
+    actions: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.actions.shape[0])
+
+
+class DemoDataset:
+    """A libero-data (LeRobot v3) dataset on disk: tasks, episodes and decoded frames.
+
+    Raises ``ValueError`` (one sentence naming the folder or feature) when ``root`` is not a
+    LeRobot dataset or lacks a feature the policies need.
+    """
+
+    def __init__(self, root: str | Path) -> None:
+        self.root = Path(root)
+        info_path = self.root / "meta" / "info.json"
+        if not self.root.is_dir():
+            raise ValueError(f"dataset folder {self.root} does not exist")
+        if not info_path.is_file():
+            raise ValueError(f"{self.root} is not a LeRobot dataset (no meta/info.json)")
+        self.info: dict[str, Any] = json.loads(info_path.read_text())
+        features = self.info.get("features", {})
+        missing = [f for f in REQUIRED_FEATURES if f not in features]
+        if missing:
+            raise ValueError(f"{self.root} lacks the feature(s) {', '.join(missing)} that the policies need")
+        for key in (OBS_IMAGE, OBS_WRIST_IMAGE):
+            if features[key].get("dtype") != "video":
+                raise ValueError(f"{self.root}: feature {key} must be stored as video")
+        shape = features[OBS_IMAGE]["shape"]
+        self.image_size = int(shape[0])
+        self.fps = float(self.info["fps"])
+        meta_path = self.root / "meta" / "libero.json"
+        self.libero_meta: dict[str, Any] = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+        request = self.libero_meta.get("request", {})
+        self.repo_id = str(request.get("repo_id") or f"local/{self.root.name}")
+        self.suite = str(request.get("suite") or self.libero_meta.get("suite") or "")
+        sim_feature = features.get("observation.sim_state", {})
+        self.sim_state_width = int(
+            self.libero_meta.get("sim_state_width") or (sim_feature.get("shape") or [0])[0]
+        )
+        self._lerobot: Any = None
+        self._columns: dict[str, np.ndarray] | None = None
+        self.decode_count = 0  # episodes decoded by this object (in this process)
+        self.episode_meta = self._read_episode_meta()
+        self.tasks = self._read_tasks()
+
+    # -- metadata -------------------------------------------------------------------------------
+    @property
+    def lerobot(self) -> Any:
+        """lerobot's ``LeRobotDataset`` over the folder (opened on first use)."""
+        if self._lerobot is None:
+            from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+            self._lerobot = LeRobotDataset(self.repo_id, root=self.root, download_videos=False)
+        return self._lerobot
+
+    def _read_episode_meta(self) -> list[dict[str, Any]]:
+        path = self.root / "meta" / "libero_episodes.jsonl"
+        total = int(self.info.get("total_episodes", 0))
+        if path.is_file():
+            rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+            by_index = {int(r.get("episode_index", i)): r for i, r in enumerate(rows)}
+            if sorted(by_index) == list(range(total)):
+                return [by_index[i] for i in range(total)]
+            logger.warning("%s: meta/libero_episodes.jsonl does not cover every episode; ignoring it", path)
+        # a plain LeRobot dataset: the task of an episode is its language instruction
+        episodes = self.lerobot.meta.episodes
+        return [
+            {
+                "episode_index": int(e["episode_index"]),
+                "language": str(e["tasks"][0]),
+                "length": int(e["length"]),
+            }
+            for e in episodes
+        ]
+
+    def _read_tasks(self) -> list[DemoTask]:
+        by_task: dict[str, list[int]] = {}
+        languages: dict[str, str] = {}
+        for i, row in enumerate(self.episode_meta):
+            name = str(row.get("task_name") or row.get("language"))
+            by_task.setdefault(name, []).append(i)
+            languages.setdefault(name, str(row.get("language") or name))
+        listed = self.libero_meta.get("tasks") or []
+        tasks: list[DemoTask] = []
+        for entry in listed:
+            name = str(entry["name"])
+            if name in by_task:
+                index = entry.get("index")
+                tasks.append(
+                    DemoTask(
+                        name=name,
+                        language=str(entry.get("language") or languages[name]),
+                        suite=self.suite,
+                        suite_index=int(index) if index is not None else None,
+                        episodes=tuple(by_task.pop(name)),
+                    )
+                )
+        for name, episodes in by_task.items():  # tasks the metadata does not list, in episode order
+            tasks.append(DemoTask(name, languages[name], self.suite, None, tuple(episodes)))
+        if not tasks:
+            raise ValueError(f"{self.root} holds no episodes")
+        return tasks
+
+    def task(self, ref: str | int) -> DemoTask:
+        """A task by name, or by its index in the suite (as ``libero-data generate --tasks``)."""
+        key = str(ref).strip()
+        for t in self.tasks:
+            if t.name == key:
+                return t
+        if key.lstrip("-").isdigit():
+            i = int(key)
+            by_suite = [t for t in self.tasks if t.suite_index == i]
+            if by_suite:
+                return by_suite[0]
+            if all(t.suite_index is None for t in self.tasks) and 0 <= i < len(self.tasks):
+                return self.tasks[i]
+        known = ", ".join(
+            f"{t.suite_index}:{t.name}" if t.suite_index is not None else t.name for t in self.tasks
+        )
+        raise ValueError(f"{self.root} has no task {key!r}; it has {known}")
+
+    def bddl_text(self, task: DemoTask) -> str | None:
+        """The task's BDDL as stored with the dataset (``meta/bddl/<name>.bddl``), if any."""
+        path = self.root / "meta" / "bddl" / f"{task.name}.bddl"
+        return path.read_text() if path.is_file() else None
+
+    def episode_length(self, episode: int) -> int:
+        row = self.episode_meta[episode]
+        if "length" in row:
+            return int(row["length"])
+        return int(self.lerobot.meta.episodes[episode]["length"])
+
+    # -- frames ---------------------------------------------------------------------------------
+    def _table(self) -> dict[str, np.ndarray]:
+        if self._columns is None:
+            hf = self.lerobot.hf_dataset.with_format("numpy")
+            columns = ["episode_index", "timestamp", *LOWDIM_FEATURES.values()]
+            table = hf.select_columns(columns)[:]
+            self._columns = {c: np.asarray(table[c]) for c in columns}
+        return self._columns
+
+    def load_episode(self, episode: int, image_size: int | None = None) -> EpisodeFrames:
+        """Decode one episode (both videos in one pass each); images resized to ``image_size``."""
+        from lerobot.datasets.video_utils import decode_video_frames
+
+        if not 0 <= episode < len(self.episode_meta):
+            raise ValueError(f"{self.root} has episodes 0..{len(self.episode_meta) - 1}, not {episode}")
+        table = self._table()
+        rows = np.flatnonzero(table["episode_index"] == episode)
+        timestamps = table["timestamp"][rows].astype(np.float64)
+        meta = self.lerobot.meta
+        record = meta.episodes[episode]
+        images: dict[str, torch.Tensor] = {}
+        for key, feature in CAMERA_FEATURES.items():
+            start = float(record[f"videos/{feature}/from_timestamp"])
+            path = self.root / meta.get_video_file_path(episode, feature)
+            frames = decode_video_frames(
+                path,
+                [start + float(t) for t in timestamps],
+                self.lerobot.tolerance_s,
+                self.lerobot._video_backend,
+                return_uint8=True,
+            )
+            images[key] = _resize(frames, image_size) if image_size else frames
+        self.decode_count += 1
+        return EpisodeFrames(
+            agentview=images[AGENTVIEW].contiguous(),
+            wrist=images[WRIST].contiguous(),
+            joint_states=table[OBS_JOINTS][rows].astype(np.float32),
+            gripper_states=table[OBS_GRIPPER][rows].astype(np.float32),
+            actions=table[ACTION][rows].astype(np.float32),
+        )
+
+    def __getstate__(self) -> dict[str, Any]:
+        # lerobot's dataset object holds open readers; a worker reopens it when needed
+        state = dict(self.__dict__)
+        state["_lerobot"] = None
+        return state
+
+
+def _resize(frames: torch.Tensor, size: int) -> torch.Tensor:
+    import torch
+    import torch.nn.functional as F
+
+    if frames.shape[-1] == size and frames.shape[-2] == size:
+        return frames
+    out = F.interpolate(
+        frames.float(), size=(size, size), mode="bilinear", antialias=True, align_corners=False
+    )
+    return out.round().clamp(0, 255).to(torch.uint8)
+
+
+class WindowDataset:
+    """Windows of ``window`` consecutive frames over some episodes (a map-style torch dataset).
+
+    ``episodes[i]`` belongs to the run's task ``task_ids[i]`` whose embedding is
+    ``task_embs[task_ids[i]]``. Sample ``j`` is the ``j``-th (episode, start) pair in episode
+    order; images are uint8 here (see :func:`batch_to_device`).
+    """
+
+    def __init__(
+        self,
+        source: DemoDataset,
+        episodes: Sequence[int],
+        task_ids: Sequence[int],
+        task_embs: np.ndarray,
+        window: int,
+        image_size: int | None = None,
+    ) -> None:
+        if len(episodes) != len(task_ids):
+            raise ValueError("episodes and task_ids must have the same length")
+        if window <= 0:
+            raise ValueError(f"window must be positive, got {window}")
+        self.source = source
+        self.episodes = [int(e) for e in episodes]
+        self.task_ids = [int(t) for t in task_ids]
+        self.task_embs = np.asarray(task_embs, dtype=np.float32)
+        self.window = window
+        self.image_size = image_size or source.image_size
+        self._frames: dict[int, EpisodeFrames] = {}
+        index: list[tuple[int, int]] = []
+        for slot, episode in enumerate(self.episodes):
+            length = source.episode_length(episode)
+            index.extend((slot, start) for start in range(length - window + 1))
+        self.index = index
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def frames(self, slot: int) -> EpisodeFrames:
+        """The decoded frames of ``episodes[slot]`` (decoded on first use, then cached)."""
+        cached = self._frames.get(slot)
+        if cached is None:
+            cached = self.source.load_episode(self.episodes[slot], self.image_size)
+            self._frames[slot] = cached
+        return cached
+
+    def preload(self) -> None:
+        """Decode every episode now (once), e.g. before DataLoader workers fork."""
+        for slot in range(len(self.episodes)):
+            self.frames(slot)
+
+    @property
+    def cached_bytes(self) -> int:
+        return sum(
+            f.agentview.numel()
+            + f.wrist.numel()
+            + 4 * (f.joint_states.size + f.gripper_states.size + f.actions.size)
+            for f in self._frames.values()
+        )
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        import torch
+
+        slot, start = self.index[i]
+        f = self.frames(slot)
+        end = start + self.window
+        task_id = self.task_ids[slot]
+        return {
+            AGENTVIEW: f.agentview[start:end],
+            WRIST: f.wrist[start:end],
+            JOINT_STATES: torch.from_numpy(f.joint_states[start:end]),
+            GRIPPER_STATES: torch.from_numpy(f.gripper_states[start:end]),
+            ACTIONS: torch.from_numpy(f.actions[start:end]),
+            TASK_EMB: torch.from_numpy(self.task_embs[task_id]),
+            TASK_ID: torch.tensor(task_id, dtype=torch.int64),
+        }
+
+
+def worker_init(_worker_id: int) -> None:
+    """DataLoader worker set-up: one thread, and no video decoder inherited through fork."""
+    import torch
+
+    torch.set_num_threads(1)
+    try:
+        from lerobot.datasets.video_utils import _default_decoder_cache
+
+        _default_decoder_cache.clear()
+    except (ImportError, AttributeError):  # another lerobot version: nothing to clear
+        pass
+
+
+def make_loader(
+    dataset: WindowDataset,
+    batch_size: int,
+    *,
+    shuffle: bool,
+    seed: int,
+    workers: int = 0,
+    multiprocessing_context: str | None = None,
+) -> DataLoader:
+    """A DataLoader over ``dataset`` whose order depends only on ``seed``.
+
+    The episodes are decoded here, in the calling process, before any worker starts.
+    """
+    import torch
+    from torch.utils.data import DataLoader
+
+    dataset.preload()
+    generator = torch.Generator().manual_seed(seed)
+    return DataLoader(
+        dataset,  # type: ignore[arg-type]
+        batch_size=batch_size,
+        shuffle=shuffle,
+        generator=generator,
+        num_workers=workers,
+        worker_init_fn=worker_init if workers else None,
+        multiprocessing_context=multiprocessing_context if workers else None,
+        persistent_workers=False,
+        drop_last=False,
+    )
+
+
+def batch_to_device(batch: Mapping[str, torch.Tensor], device: torch.device | str) -> dict[str, torch.Tensor]:
+    """Move a collated batch to ``device``; uint8 images become float32 in [0, 1] there."""
+    import torch
+
+    out: dict[str, torch.Tensor] = {}
+    for key, value in batch.items():
+        value = value.to(device, non_blocking=True)
+        if key in IMAGE_KEYS and value.dtype == torch.uint8:
+            value = value.float().div_(255.0)
+        out[key] = value
+    return out
+
+
+class TaskLoader:
+    """Iterable of device batches (float images) over a :class:`WindowDataset`; each
+    iteration is one epoch, shuffled from ``seed`` and the epoch number."""
+
+    def __init__(
+        self,
+        dataset: WindowDataset,
+        batch_size: int,
+        device: torch.device | str,
+        *,
+        seed: int,
+        shuffle: bool = True,
+        workers: int = 0,
+    ) -> None:
+        if len(dataset) == 0:
+            raise ValueError(f"no training windows: every episode is shorter than {dataset.window} frames")
+        self.dataset = dataset
+        self.batch_size = batch_size
+        self.device = device
+        self.seed = seed
+        self.shuffle = shuffle
+        self.workers = workers
+        self.epoch = 0
+        dataset.preload()
+
+    def __len__(self) -> int:
+        return math.ceil(len(self.dataset) / self.batch_size)
+
+    def set_epoch(self, epoch: int) -> None:
+        self.epoch = epoch
+
+    def __iter__(self) -> Iterator[dict[str, torch.Tensor]]:
+        loader = make_loader(
+            self.dataset,
+            self.batch_size,
+            shuffle=self.shuffle,
+            seed=(self.seed * 1_000_003 + self.epoch) % 2**63,
+            workers=self.workers,
+        )
+        for batch in loader:
+            yield batch_to_device(batch, self.device)

@@ -1,0 +1,104 @@
+"""Rerun recordings (``.rrd``) of evaluation rollouts and saliency maps.
+
+A rollout recording has a ``step`` timeline (and ``time`` in seconds at 20 Hz) with
+``cameras/agentview`` and ``cameras/eye_in_hand`` (JPEG), ``state/<name>`` (8),
+``joints/<name>`` (7), ``action/<name>`` (7) and ``success`` (0/1 after each step) as
+scalars; the instruction is the static ``language`` document and the rollout's tags the
+static ``tags`` document; a final text log says whether the goal was reached.
+Read them back with ``rerun.recording.load_recording`` (``rerun.dataframe`` before 0.28).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FPS = 20
+STATE_NAMES = ["eef_x", "eef_y", "eef_z", "eef_ax", "eef_ay", "eef_az", "gripper_left", "gripper_right"]
+ACTION_NAMES = ["dx", "dy", "dz", "drx", "dry", "drz", "gripper"]
+JOINT_NAMES = [f"joint_{i}" for i in range(1, 8)]
+CAMERAS = {"agentview": "cameras/agentview", "eye_in_hand": "cameras/eye_in_hand"}
+
+
+def write_rollout_rrd(
+    path: str | Path,
+    *,
+    frames: Sequence[Mapping[str, Any]],
+    success: Sequence[bool],
+    language: str,
+    tags: Mapping[str, Any],
+    recording_id: str,
+) -> Path:
+    """Write one rollout (env observations with an ``action`` each) to ``path`` atomically."""
+    import rerun as rr
+
+    if len(frames) != len(success):
+        raise ValueError(f"{len(frames)} frames but {len(success)} success flags")
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".tmp")
+    rec = rr.RecordingStream("libero-bench", recording_id=recording_id)
+    rec.save(str(tmp))
+    rec.log("language", rr.TextDocument(language), static=True)
+    rec.log("tags", rr.TextDocument(json.dumps(dict(tags), sort_keys=True, default=str)), static=True)
+    for step, (obs, ok) in enumerate(zip(frames, success, strict=True)):
+        rec.set_time("step", sequence=step)
+        rec.set_time("time", duration=step / FPS)
+        for camera, entity in CAMERAS.items():
+            if camera in obs:
+                rec.log(entity, rr.Image(np.asarray(obs[camera], dtype=np.uint8)).compress(jpeg_quality=90))
+        _scalars(rec, "state", STATE_NAMES, obs.get("state"))
+        _scalars(rec, "joints", JOINT_NAMES, obs.get("joint_pos"))
+        _scalars(rec, "action", ACTION_NAMES, obs.get("action"))
+        rec.log("success", rr.Scalars(float(bool(ok))))
+    if frames:
+        outcome = "success: the goal holds" if any(success) else "failure: the goal was not reached"
+        rec.log("log", rr.TextLog(f"{language}: {outcome} after {len(frames)} steps"))
+    rec.flush()
+    rec.disconnect()
+    tmp.replace(out)
+    return out
+
+
+def _scalars(rec: Any, prefix: str, names: Sequence[str], values: Any) -> None:
+    import rerun as rr
+
+    if values is None:
+        return
+    for name, value in zip(names, np.asarray(values, dtype=np.float64).reshape(-1), strict=False):
+        rec.log(f"{prefix}/{name}", rr.Scalars(float(value)))
+
+
+def write_saliency_rrd(
+    path: str | Path,
+    *,
+    images: Sequence[np.ndarray],
+    maps: Sequence[np.ndarray],
+    overlays: Sequence[np.ndarray],
+    frame_indices: Sequence[int],
+    language: str,
+    recording_id: str,
+) -> Path:
+    """Saliency maps on a ``frame`` timeline: ``agentview`` (the input image, HxWx3 uint8),
+    ``saliency`` (the map, HxW float in [0, 1]) and ``overlay`` (HxWx3 uint8)."""
+    import rerun as rr
+
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".tmp")
+    rec = rr.RecordingStream("libero-bench-saliency", recording_id=recording_id)
+    rec.save(str(tmp))
+    rec.log("language", rr.TextDocument(language), static=True)
+    for index, image, sal, over in zip(frame_indices, images, maps, overlays, strict=True):
+        rec.set_time("frame", sequence=int(index))
+        rec.log("agentview", rr.Image(np.asarray(image, dtype=np.uint8)))
+        rec.log("saliency", rr.Image(np.asarray(sal, dtype=np.float32)))
+        rec.log("overlay", rr.Image(np.asarray(over, dtype=np.uint8)))
+    rec.flush()
+    rec.disconnect()
+    tmp.replace(out)
+    return out

@@ -1,0 +1,232 @@
+"""The layout of a run folder and its JSON files (no torch here: reports read it cheaply).
+
+::
+
+    RUN/
+      config.json         what the run is: data, tasks in order, preset, policy, algorithm, seed
+      results.json        success tensor (curve, after), best epochs, losses, every rollout's outcome
+      timings.jsonl       seconds per epoch / evaluation round (not part of the results)
+      run.log             the library's log (written by the CLI)
+      checkpoints/task_NNN.pt   policy + algorithm state + RNG after each task (resume point)
+      rollouts/           every evaluation rollout as one LeRobot dataset (+ mcap/ per rollout)
+      rrd/<key>.rrd       a Rerun recording per rollout
+      .work/              shards and scratch files while running
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+CONFIG = "config.json"
+RESULTS = "results.json"
+TIMINGS = "timings.jsonl"
+LOG = "run.log"
+CHECKPOINTS = "checkpoints"
+ROLLOUTS = "rollouts"
+RRD = "rrd"
+WORK = ".work"
+RUN_FORMAT = "libero-bench-run/1"
+
+LEARNING, PRUNED, AFTER = "learning", "pruned", "after"
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Write JSON atomically (temporary file, fsync, rename)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    with tmp.open("w") as f:
+        f.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
+        f.flush()
+        os.fsync(f.fileno())
+    tmp.replace(path)
+
+
+def rollout_key(learned_after: int, phase: str, task: int, rollout: int, epoch: int | None = None) -> str:
+    """A rollout's name; names sort in the order the rollouts are run."""
+    if phase == LEARNING:
+        if epoch is None:
+            raise ValueError("learning-phase rollouts need an epoch")
+        stage = f"e{epoch:03d}"
+    elif phase == PRUNED:
+        stage = "p"
+    elif phase == AFTER:
+        stage = "z"
+    else:
+        raise ValueError(f"unknown evaluation phase {phase!r}")
+    return f"k{learned_after:03d}-{stage}-t{task:03d}-r{rollout:03d}"
+
+
+def _nan_to_none(rows: list[list[float]]) -> list[list[float | None]]:
+    return [
+        [None if (v is None or (isinstance(v, float) and math.isnan(v))) else v for v in row] for row in rows
+    ]
+
+
+def _none_to_nan(rows: list[list[Any]]) -> list[list[float]]:
+    return [[math.nan if v is None else float(v) for v in row] for row in rows]
+
+
+@dataclass
+class RunResults:
+    """What a run measured; ``curve[k][e]`` and ``after[tau][k]`` as in :mod:`metrics`.
+
+    ``stage[k]`` is ``""`` (not started), ``"trained"`` (checkpoint saved, earlier tasks not
+    yet re-evaluated) or ``"done"``.
+    """
+
+    tasks: list[dict[str, Any]]
+    eval_epochs: list[int]
+    curve: list[list[float]]
+    after: list[list[float]]
+    best_epoch: list[int | None]
+    losses: list[list[dict[str, float]]]
+    post_losses: list[list[dict[str, float]]]
+    pruned: list[float | None]
+    stage: list[str]
+    rollouts: list[dict[str, Any]] = field(default_factory=list)
+    complete: bool = False
+
+    @classmethod
+    def empty(cls, tasks: list[dict[str, Any]], eval_epochs: list[int]) -> RunResults:
+        k, e = len(tasks), len(eval_epochs)
+        return cls(
+            tasks=tasks,
+            eval_epochs=eval_epochs,
+            curve=[[math.nan] * e for _ in range(k)],
+            after=[[math.nan] * k for _ in range(k)],
+            best_epoch=[None] * k,
+            losses=[[] for _ in range(k)],
+            post_losses=[[] for _ in range(k)],
+            pruned=[None] * k,
+            stage=[""] * k,
+        )
+
+    @property
+    def finished_tasks(self) -> int:
+        """Tasks fully done, counted from the first."""
+        n = 0
+        for s in self.stage:
+            if s != "done":
+                break
+            n += 1
+        return n
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "tasks": self.tasks,
+            "eval_epochs": self.eval_epochs,
+            "curve": _nan_to_none(self.curve),
+            "after": _nan_to_none(self.after),
+            "best_epoch": self.best_epoch,
+            "losses": self.losses,
+            "post_losses": self.post_losses,
+            "pruned": self.pruned,
+            "stage": self.stage,
+            "rollouts": self.rollouts,
+            "complete": self.complete,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> RunResults:
+        return cls(
+            tasks=list(data["tasks"]),
+            eval_epochs=[int(e) for e in data["eval_epochs"]],
+            curve=_none_to_nan(data["curve"]),
+            after=_none_to_nan(data["after"]),
+            best_epoch=list(data["best_epoch"]),
+            losses=list(data["losses"]),
+            post_losses=list(data["post_losses"]),
+            pruned=list(data["pruned"]),
+            stage=list(data["stage"]),
+            rollouts=list(data.get("rollouts", [])),
+            complete=bool(data.get("complete", False)),
+        )
+
+
+@dataclass(frozen=True)
+class RunFolder:
+    """Paths inside a run folder."""
+
+    root: Path
+
+    @property
+    def config(self) -> Path:
+        return self.root / CONFIG
+
+    @property
+    def results(self) -> Path:
+        return self.root / RESULTS
+
+    @property
+    def timings(self) -> Path:
+        return self.root / TIMINGS
+
+    @property
+    def log(self) -> Path:
+        return self.root / LOG
+
+    @property
+    def checkpoints(self) -> Path:
+        return self.root / CHECKPOINTS
+
+    @property
+    def rollouts(self) -> Path:
+        return self.root / ROLLOUTS
+
+    @property
+    def rrd(self) -> Path:
+        return self.root / RRD
+
+    @property
+    def work(self) -> Path:
+        return self.root / WORK
+
+    @property
+    def shards(self) -> Path:
+        return self.work / "shards"
+
+    def checkpoint(self, task: int) -> Path:
+        return self.checkpoints / f"task_{task:03d}.pt"
+
+    def shard(self, key: str) -> Path:
+        return self.shards / key
+
+    def rrd_file(self, key: str) -> Path:
+        return self.rrd / f"{key}.rrd"
+
+    def read_config(self) -> dict[str, Any]:
+        if not self.config.is_file():
+            raise ValueError(f"{self.root} is not a libero-bench run folder (no {CONFIG})")
+        data = json.loads(self.config.read_text())
+        if data.get("format") != RUN_FORMAT:
+            raise ValueError(f"{self.config} is not a {RUN_FORMAT} config")
+        return dict(data)
+
+    def read_results(self) -> RunResults:
+        if not self.results.is_file():
+            raise ValueError(f"{self.root} has no results yet ({RESULTS} is missing)")
+        return RunResults.from_dict(json.loads(self.results.read_text()))
+
+    def append_timing(self, record: Mapping[str, Any]) -> None:
+        with self.timings.open("a") as f:
+            f.write(json.dumps(dict(record), sort_keys=True) + "\n")
+
+
+def find_task(config: Mapping[str, Any], ref: str) -> dict[str, Any]:
+    """A task of a run (its ``config.json``) by name or by position in the run."""
+    tasks = config["tasks"]
+    for t in tasks:
+        if t["name"] == ref:
+            return dict(t)
+    if ref.strip().isdigit():
+        i = int(ref)
+        if 0 <= i < len(tasks):
+            return dict(tasks[i])
+    names = ", ".join(f"{t['position']}:{t['name']}" for t in tasks)
+    raise ValueError(f"the run has no task {ref!r}; its tasks are {names}")

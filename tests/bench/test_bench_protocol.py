@@ -1,0 +1,142 @@
+"""The training protocol of every algorithm, with scripted evaluation outcomes instead of
+simulation: the learning curve, the kept (best) checkpoint, the after-task evaluations,
+PackNet's evaluation before fine-tuning, MTL, and resuming between task stages."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import pytest
+import torch
+
+from libero_bench import evaluate
+from libero_bench.algos import ALGOS
+from libero_bench.evaluate import RolloutJob, RolloutResult
+from libero_bench.presets import SMOKE
+from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
+
+pytestmark = pytest.mark.sim  # needs the generated tiny dataset (no simulation runs here)
+
+#: success rate of task k at epoch e while learning it (2 rollouts: 0, 0.5 or 1)
+CURVE = {0: [0.0, 1.0, 0.5], 1: [0.5, 0.5, 1.0]}
+AFTER = 0.5
+PRUNED = 1.0
+PRESET = SMOKE.replace(epochs=2, batch_size=32, image_size=32, language_encoder="task_id")
+
+
+def _digest(policy: torch.nn.Module) -> float:
+    return float(
+        sum(p.detach().double().sum() for p in policy.state_dict().values() if p.is_floating_point())
+    )
+
+
+class ScriptedEvaluator:
+    """Stands in for :class:`libero_bench.evaluate.Evaluator`: successes come from the tables
+    above; every call records the policy's weights digest."""
+
+    calls: ClassVar[list[dict[str, Any]]] = []
+
+    def __init__(self, workers: int, work_dir: Path) -> None:
+        pass
+
+    def __enter__(self) -> ScriptedEvaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def run(self, policy: Any, jobs: list[RolloutJob], on_result: Any = None) -> list[RolloutResult]:
+        out = []
+        for job in jobs:
+            tags = job.tags
+            if tags["phase"] == "learning":
+                rate = CURVE[tags["task_position"]][tags["epoch"]]
+            elif tags["phase"] == "after":
+                rate = AFTER
+            else:
+                rate = PRUNED
+            success = tags["rollout"] < round(rate * 2)
+            out.append(RolloutResult(job.key, success, 3, 0.0))
+            type(self).calls.append({**tags, "digest": _digest(policy)})
+        return out
+
+
+@pytest.fixture
+def scripted(monkeypatch: pytest.MonkeyPatch) -> type[ScriptedEvaluator]:
+    ScriptedEvaluator.calls = []
+    monkeypatch.setattr(evaluate, "Evaluator", ScriptedEvaluator)
+    monkeypatch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
+    return ScriptedEvaluator
+
+
+def _trainer(data: Path, out: Path, algo: str) -> Trainer:
+    plan = plan_run(RunRequest(data=data, algo=algo, policy="resnet_t", preset=PRESET))
+    return Trainer(plan, out, RunOptions(workers=0))
+
+
+@pytest.mark.parametrize("algo", ALGOS.names())
+def test_protocol(algo: str, tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator]) -> None:
+    results = _trainer(tiny_dataset, tmp_path / "run", algo).run()
+    assert results.complete and results.stage == ["done", "done"]
+    assert results.eval_epochs == [0, 1, 2]
+    checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "task_000.pt", weights_only=False)
+    policy_digest = sum(v.double().sum() for v in checkpoint["policy"].values() if v.is_floating_point())
+    if ALGOS.get(algo).needs_all_tasks:
+        # one multitask training, every task evaluated at every epoch, best mean kept (epoch 1)
+        assert results.curve == [CURVE[0], CURVE[1]]
+        assert results.best_epoch == [1, 1]
+        assert results.after == [[1.0, 0.5], [1.0, 0.5]]
+        assert not (tmp_path / "run" / "checkpoints" / "task_001.pt").exists()
+        kept = [c["digest"] for c in scripted.calls if c["epoch"] == 1]
+        assert float(policy_digest) == pytest.approx(kept[0], rel=1e-12)
+        return
+    assert results.curve == [CURVE[0], CURVE[1]]
+    assert results.best_epoch == [1, 2]  # the earliest best epoch
+    assert results.after[0][0] == 1.0 and results.after[1][1] == 1.0
+    assert results.after[1][0] == AFTER and math.isnan(results.after[0][1])
+    phases = [(c["phase"], c["learned_after_position"], c["task_position"]) for c in scripted.calls]
+    after_calls = [p for p in phases if p[0] == "after"]
+    assert after_calls == [("after", 1, 0), ("after", 1, 0)]  # 2 rollouts of task 0 after task 1
+    assert [len(loss) for loss in results.losses] == [3, 3]
+    kept = next(c["digest"] for c in scripted.calls if c["epoch"] == 1 and c["task_position"] == 0)
+    if algo == "packnet":
+        # evaluated once more after pruning, before fine-tuning; the curve is untouched by it
+        assert results.pruned == [PRUNED, PRUNED]
+        assert [len(loss) for loss in results.post_losses] == [1, 1]
+        assert phases.index(("pruned", 0, 0)) < phases.index(("learning", 1, 1))
+        assert float(policy_digest) != pytest.approx(kept, rel=1e-9)  # pruned and fine-tuned
+    else:
+        assert results.pruned == [None, None]
+        # the checkpoint holds the weights evaluated at the best epoch
+        assert float(policy_digest) == pytest.approx(kept, rel=1e-12)
+
+
+def test_resume_after_the_checkpoint_redoes_only_the_after_task_evaluations(
+    tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator]
+) -> None:
+    out = tmp_path / "run"
+    first = _trainer(tiny_dataset, out, "er").run()
+    saved = json.loads((out / "results.json").read_text())
+    # as if killed after task 1's checkpoint, before the earlier task was evaluated again
+    interrupted = dict(saved, complete=False, stage=["done", "trained"])
+    interrupted["after"] = [[1.0, None], [None, 1.0]]
+    interrupted["rollouts"] = [r for r in saved["rollouts"] if r["phase"] != "after"]
+    (out / "results.json").write_text(json.dumps(interrupted))
+    scripted.calls = []
+    again = _trainer(tiny_dataset, out, "er").run()
+    assert [c["phase"] for c in scripted.calls] == ["after", "after"]
+    assert again.to_dict() == first.to_dict()
+    # the digest of the weights used for the after-task evaluation is the saved checkpoint's
+    checkpoint = torch.load(out / "checkpoints" / "task_001.pt", weights_only=False)
+    digest = float(sum(v.double().sum() for v in checkpoint["policy"].values() if v.is_floating_point()))
+    assert scripted.calls[0]["digest"] == pytest.approx(digest, rel=1e-12)
+
+
+def test_a_run_folder_refuses_other_settings(tiny_dataset: Path, tmp_path: Path, scripted: Any) -> None:
+    out = tmp_path / "run"
+    _trainer(tiny_dataset, out, "seql").run()
+    with pytest.raises(ValueError, match="holds a run with a different 'algo'"):
+        _trainer(tiny_dataset, out, "ewc").prepare()

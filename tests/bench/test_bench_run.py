@@ -1,0 +1,301 @@
+"""End to end through the CLI: a 2-task ER run in simulation, its rollout dataset, MCAP logs,
+Rerun recordings, report, replay, saliency, and resuming after SIGKILL."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from libero_bench import metrics
+
+pytestmark = pytest.mark.sim
+
+#: The smoke preset, shortened: 2 tasks x (epochs 0, 1) x 2 rollouts + 2 after-task rollouts.
+RUN_ARGS = [
+    "--algo",
+    "er",
+    "--policy",
+    "resnet_t",
+    "--preset",
+    "smoke",
+    "--set",
+    "epochs=1",
+    "--set",
+    "eval_max_steps=6",
+    "--set",
+    "language_encoder=task_id",
+]
+
+
+def bench(*args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+    return subprocess.run(
+        [sys.executable, "-m", "libero_bench.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+    )
+
+
+@pytest.fixture(scope="module")
+def bench_run(tiny_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("bench") / "run"
+    started = time.monotonic()
+    result = bench("run", "--data", str(tiny_dataset), *RUN_ARGS, "--workers", "2", "--out", str(out))
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "er + resnet_t" in result.stdout  # the closing table
+    print(f"bench run: {time.monotonic() - started:.0f} s")
+    return out
+
+
+def _results(run: Path) -> dict:
+    return json.loads((run / "results.json").read_text())
+
+
+def _episodes(run: Path) -> list[dict]:
+    text = (run / "rollouts" / "meta" / "libero_episodes.jsonl").read_text()
+    return [json.loads(line) for line in text.splitlines()]
+
+
+def test_run_folder_and_results(bench_run: Path) -> None:
+    config = json.loads((bench_run / "config.json").read_text())
+    assert config["preset"]["epochs"] == 1 and config["preset"]["eval_max_steps"] == 6
+    assert [t["name"] for t in config["tasks"]] == [
+        "open_the_middle_drawer_of_the_cabinet",
+        "turn_on_the_stove",
+    ]
+    results = _results(bench_run)
+    assert results["complete"] and results["stage"] == ["done", "done"]
+    assert results["eval_epochs"] == [0, 1]
+    curve = np.array(results["curve"], dtype=float)
+    after = np.array(results["after"], dtype=float)
+    assert curve.shape == (2, 2) and np.isfinite(curve).all()
+    assert np.isfinite(after[1, 0]) and math.isnan(after[0, 1])
+    assert after[0, 0] == curve[0].max() and after[1, 1] == curve[1].max()
+    assert len(results["losses"][0]) == 2 and all(math.isfinite(e["total"]) for e in results["losses"][0])
+    assert len(results["rollouts"]) == 2 * 2 * 2 + 2
+    for k in range(2):
+        assert (bench_run / "checkpoints" / f"task_{k:03d}.pt").is_file()
+
+
+def test_rollout_dataset_loads_and_matches_the_success_matrix(bench_run: Path) -> None:
+    import datasets
+
+    episodes = _episodes(bench_run)
+    frames = datasets.load_dataset(str(bench_run / "rollouts"), split="train")
+    assert len(frames) == sum(e["length"] for e in episodes)
+    assert sorted(set(frames["episode_index"])) == list(range(len(episodes)))
+    assert "action" in frames.column_names and "observation.state" in frames.column_names
+
+    results = _results(bench_run)
+    rates: dict[tuple, list[bool]] = defaultdict(list)
+    for e in episodes:
+        assert {"task_name", "learned_after", "epoch", "run_seed", "init_index", "success"} <= set(e)
+        assert e["run_seed"] == 0 and e["init_index"] == e["rollout"]
+        rates[(e["phase"], e["learned_after_position"], e["task_position"], e["epoch"])].append(e["success"])
+    epochs = results["eval_epochs"]
+    for k in range(2):
+        for i, epoch in enumerate(epochs):
+            assert np.mean(rates[("learning", k, k, epoch)]) == results["curve"][k][i]
+    assert np.mean(rates[("after", 1, 0, None)]) == results["after"][1][0]
+    # the rollout list in results.json and the dataset tell the same story, episode by episode
+    by_key = {r["key"]: r for r in results["rollouts"]}
+    assert sorted(by_key) == [e["key"] for e in episodes]
+    for e in episodes:
+        assert by_key[e["key"]]["success"] == e["success"] and by_key[e["key"]]["steps"] == e["length"]
+
+
+def test_every_rollout_has_an_mcap_log_and_a_rerun_recording(bench_run: Path) -> None:
+    import rerun.recording as rd
+
+    from libero_data.record.mcap_log import read_mcap
+
+    episodes = _episodes(bench_run)
+    mcaps = sorted((bench_run / "rollouts" / "mcap").glob("*.mcap"))
+    assert len(mcaps) == len(episodes)
+    topics = {topic for topic, _, _ in read_mcap(mcaps[0])}
+    assert any("image" in t or "camera" in t for t in topics), topics
+    rrds = sorted((bench_run / "rrd").glob("*.rrd"))
+    assert [p.stem for p in rrds] == [e["key"] for e in episodes]
+
+    episode = episodes[-1]
+    recording = rd.load_recording(str(bench_run / "rrd" / f"{episode['key']}.rrd"))
+    table = recording.view(index="step", contents="/**").select().read_all()
+    columns = set(table.column_names)
+    for needed in (
+        "/cameras/agentview:EncodedImage:blob",
+        "/cameras/eye_in_hand:EncodedImage:blob",
+        "/action/gripper:Scalars:scalars",
+        "/state/eef_z:Scalars:scalars",
+        "/success:Scalars:scalars",
+    ):
+        assert needed in columns, sorted(columns)
+    steps = table.column("step").to_pylist()
+    assert steps == list(range(episode["length"]))
+    language = recording.view(index="step", contents="/language").select_static().read_all()
+    assert episode["language"] in str(language.to_pylist())
+    success = [v[0] for v in table.column("/success:Scalars:scalars").to_pylist()]
+    assert bool(success[-1]) == episode["success"]
+
+
+def test_report(bench_run: Path, tmp_path: Path) -> None:
+    result = bench("report", str(bench_run), str(bench_run), "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    assert "FWT" in result.stdout and "er + resnet_t" in result.stdout
+    report = json.loads((tmp_path / "report.json").read_text())
+    results = _results(bench_run)
+    curve = np.array(results["curve"], dtype=float)
+    after = np.array(results["after"], dtype=float)
+    (group,) = report["groups"]
+    assert group["fwt"]["mean"] == pytest.approx(metrics.fwt(curve))
+    assert group["nbt"]["mean"] == pytest.approx(metrics.nbt(curve, after))
+    assert group["auc"]["mean"] == pytest.approx(metrics.auc(curve, after))
+    assert group["fwt"]["stderr"] == 0.0  # the same run twice
+    for name in ("er-resnet-t_success_matrix.png", "er-resnet-t_success_curves.png"):
+        data = (tmp_path / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 2000
+    assert "| er + resnet_t |" in (tmp_path / "report.md").read_text()
+
+
+def test_replay(bench_run: Path, tmp_path: Path) -> None:
+    listed = bench("replay", str(bench_run), "--task", "turn_on_the_stove")
+    assert listed.returncode == 0, listed.stderr
+    lines = listed.stdout.strip().splitlines()
+    assert len(lines) == 4 and "k001-e000-t001-r000" in lines[0]
+    out = tmp_path / "copy.rrd"
+    result = bench("replay", str(bench_run), "--task", "0", "--rollout", "4", "--rrd", str(out))
+    assert result.returncode == 0, result.stderr
+    assert out.read_bytes() == (bench_run / "rrd" / "k001-z-t000-r000.rrd").read_bytes()
+    bad = bench("replay", str(bench_run), "--task", "0", "--rollout", "9")
+    assert bad.returncode == 2 and bad.stderr.strip() == (
+        "error: task open_the_middle_drawer_of_the_cabinet has rollouts 0..5, not 9"
+    )
+
+
+def test_saliency(bench_run: Path, tmp_path: Path) -> None:
+    import rerun.recording as rd
+
+    result = bench("saliency", str(bench_run), "--task", "1", "--frames", "0,20", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "frame_00000.png",
+        "frame_00020.png",
+        "saliency.rrd",
+    ]
+    from PIL import Image
+
+    image = np.asarray(Image.open(tmp_path / "frame_00020.png"))
+    assert image.shape[1] == 2 * image.shape[0]  # the frame and its overlay side by side
+    recording = rd.load_recording(str(tmp_path / "saliency.rrd"))
+    table = recording.view(index="frame", contents="/**").select().read_all()
+    assert table.column("frame").to_pylist() == [0, 20]
+    assert any(c.startswith("/saliency:") for c in table.column_names)
+    from libero_bench.saliency_run import saliency_for_run
+
+    # in this process: the 4th rollout of task 0 is the run's 4th episode (rollouts sort by key)
+    written = saliency_for_run(bench_run, task="0", source="rollout", rollout=3, out=tmp_path / "r")
+    length = _episodes(bench_run)[3]["length"]
+    frames = sorted({round(float(x)) for x in np.linspace(0, length - 1, min(4, length))})
+    assert [p.name for p in written] == [f"frame_{i:05d}.png" for i in frames] + ["saliency.rrd"]
+    assert len(list((tmp_path / "r").glob("frame_*.png"))) >= 1
+
+
+def test_resume_after_sigkill_gives_the_same_results(
+    bench_run: Path, tiny_dataset: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "resumed"
+    command = [sys.executable, "-m", "libero_bench.cli", "run", "--data", str(tiny_dataset), *RUN_ARGS]
+    command += ["--workers", "0", "--out", str(out)]
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    deadline = time.monotonic() + 600
+    try:
+        while not (out / "checkpoints" / "task_000.pt").is_file():
+            assert proc.poll() is None, "the run ended before its first checkpoint"
+            assert time.monotonic() < deadline
+            time.sleep(0.1)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    partial = _results(out)
+    assert not partial["complete"] and partial["stage"][1] == ""
+    assert not (out / "checkpoints" / "task_001.pt").exists()
+
+    result = bench("run", "--data", str(tiny_dataset), *RUN_ARGS, "--workers", "0", "--out", str(out))
+    assert result.returncode == 0, result.stderr[-3000:]
+    # rollouts in this process or in two workers, interrupted or not: the same numbers
+    assert _results(out) == _results(bench_run)
+    assert sorted(p.name for p in (out / "rrd").iterdir()) == sorted(
+        p.name for p in (bench_run / "rrd").iterdir()
+    )
+    assert _episodes(out) == _episodes(bench_run)
+    import datasets
+
+    ours = datasets.load_dataset(str(out / "rollouts"), split="train")
+    theirs = datasets.load_dataset(str(bench_run / "rollouts"), split="train")
+    for column in ("action", "observation.state", "observation.sim_state"):
+        np.testing.assert_array_equal(np.array(ours[column]), np.array(theirs[column]))
+    assert not list((out / ".work").glob("**/*.tmp-*"))
+
+    # the same folder with other settings is refused, in one sentence
+    other = bench("run", "--data", str(tiny_dataset), *RUN_ARGS, "--set", "batch_size=4", "--out", str(out))
+    assert other.returncode == 2
+    assert other.stderr.strip() == (
+        f"error: {out} holds a run with a different 'preset'; resume it with the same settings "
+        "or choose a new --out folder"
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--data", "{missing}"], "does not exist"),
+        (
+            ["--data", "{data}", "--algo", "sgd"],
+            "unknown algorithm 'sgd'; known: er, ewc, mtl, packnet, seql",
+        ),
+        (["--data", "{data}", "--tasks", "put_the_bowl"], "has no task 'put_the_bowl'"),
+        (["--data", "{data}", "--order", "3"], "upstream task orders are for 10 tasks, but the run has 2"),
+        (["--data", "{data}", "--set", "epoch=3"], "the preset has no field 'epoch'"),
+        (["--data", "{data}", "--set", "epochs=0"], "TrainPreset.epochs must be a positive integer"),
+        (["--data", "{data}", "--device", "tpu"], "--device must be cpu or cuda"),
+    ],
+)
+def test_bad_run_input_is_one_sentence(
+    args: list[str], message: str, tiny_dataset: Path, tmp_path: Path
+) -> None:
+    filled = [a.format(missing=tmp_path / "nope", data=tiny_dataset) for a in args]
+    result = bench("run", *filled, "--out", str(tmp_path / "run"), timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert message in result.stderr
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    assert not (tmp_path / "run" / "results.json").exists()
+
+
+def test_bad_report_and_replay_input(tmp_path: Path, bench_run: Path) -> None:
+    (tmp_path / "junk").mkdir()
+    (tmp_path / "junk" / "x.txt").write_text("x")
+    cases = [
+        (["report", str(tmp_path / "junk")], "is not a libero-bench run folder"),
+        (["report", str(tmp_path / "none")], "does not exist"),
+        (["replay", str(bench_run), "--task", "stove"], "the run has no task 'stove'"),
+        (["saliency", str(bench_run), "--task", "0", "--frames", "0,x"], "--frames takes comma-separated"),
+        (["saliency", str(bench_run), "--task", "0", "--frames", "999"], "not 999"),
+        (["run", "--data", str(bench_run / "rollouts"), "--out", str(tmp_path / "junk")], "is not empty"),
+    ]
+    for args, message in cases:
+        result = bench(*args, timeout=120)
+        assert result.returncode == 2, (args, result.stderr)
+        assert message in result.stderr, (args, result.stderr)
+        assert "Traceback" not in result.stderr

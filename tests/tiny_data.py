@@ -1,0 +1,39 @@
+"""A tiny generated dataset shared by the pipeline and benchmark tests (made once per session)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+#: Two short tasks (open a drawer, turn on the stove), one episode each, small images.
+TINY = [
+    "--suite",
+    "libero_goal",
+    "--tasks",
+    "0,7",
+    "--episodes-per-task",
+    "1",
+    "--image-size",
+    "64",
+    "--seed",
+    "3",
+]
+
+
+def run_cli(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+    return subprocess.run(
+        [sys.executable, "-m", "libero_data.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+    )
+
+
+def make_tiny_dataset(out: Path) -> Path:
+    result = run_cli("generate", *TINY, "--out", str(out))
+    assert result.returncode == 0, result.stderr[-3000:]
+    return out
