@@ -143,14 +143,53 @@ def generate_cmd(
         typer.Option("--out", "-o", help="Dataset folder to create (or to continue, after an interruption)."),
     ],
     suite: Annotated[
-        str, typer.Option("--suite", "-s", help="Suite name (libero_object, ...) or a suite folder.")
-    ] = "libero_object",
+        str | None,
+        typer.Option(
+            "--suite", "-s", help="Suite name (libero_object, ...) or a suite folder; default libero_object."
+        ),
+    ] = None,
     tasks: Annotated[
         list[str] | None,
         typer.Option(
             "--tasks",
             "-t",
             help="Task indices or names within the suite (repeat or comma-separate); default: all.",
+        ),
+    ] = None,
+    procedural: Annotated[
+        int | None,
+        typer.Option(
+            "--procedural",
+            help="Sample this many new tasks (seeded by --seed), keep those the expert solves from at least "
+            "half of their sampled initial states, and write them with their dataset into --out.",
+            min=1,
+        ),
+    ] = None,
+    scene: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--scene", help="With --procedural: scene layouts to sample from (see `libero-data scenes`)."
+        ),
+    ] = None,
+    template: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--template",
+            help="With --procedural: behaviour templates to sample from (see `libero-data scenes`).",
+        ),
+    ] = None,
+    variants_of: Annotated[
+        str | None,
+        typer.Option(
+            "--variants-of",
+            help="Make robustness variants of this suite's tasks (--tasks to choose some), each proven "
+            "feasible with the expert, with their dataset, into --out.",
+        ),
+    ] = None,
+    kinds: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--kinds", help="With --variants-of: layout, distractors, swap, language (default: all)."
         ),
     ] = None,
     episodes_per_task: Annotated[
@@ -210,6 +249,21 @@ def generate_cmd(
 
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
     task_refs = [part for item in (tasks or []) for part in item.split(",") if part]
+    if procedural is not None and variants_of is not None:
+        raise typer.BadParameter("choose --procedural or --variants-of, not both")
+    if procedural is not None:
+        if suite is not None or task_refs:
+            raise typer.BadParameter("--procedural makes its own suite; leave out --suite and --tasks")
+        suite = str(_procedural_suite(out, procedural, seed, scene, template, workers))
+        task_refs = []
+    elif variants_of is not None:
+        if suite is not None:
+            raise typer.BadParameter("--variants-of makes its own suite; leave out --suite")
+        suite = str(_procedural_suite(out, 0, seed, None, None, workers, variants_of, kinds, task_refs))
+        task_refs = []
+    elif scene or template or kinds:
+        raise typer.BadParameter("--scene/--template need --procedural, --kinds needs --variants-of")
+    suite = suite or "libero_object"
     request = resolve_request(
         suite,
         task_refs or None,
@@ -269,6 +323,91 @@ def generate_cmd(
     console.print("load it with:", markup=False)
     console.print(f'  datasets.load_dataset("{out}", split="train")', markup=False)
     console.print(f'  LeRobotDataset("{request.repo_id}", root="{out}")', markup=False)
+
+
+def _procedural_suite(
+    out: Path,
+    n: int,
+    seed: int,
+    scenes: list[str] | None,
+    templates: list[str] | None,
+    workers: int,
+    variants_of: str | None = None,
+    kinds: list[str] | None = None,
+    tasks: list[str] | None = None,
+) -> Path:
+    """Sample (or derive variants) and check tasks into ``out`` (``libero_data.procedural.suite``)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from libero_data.procedural.suite import ProceduralSettings, make_suite
+    from libero_data.procedural.variants import KINDS
+
+    split = lambda items: tuple(p for item in (items or []) for p in item.split(",") if p)  # noqa: E731
+    if variants_of is not None:
+        from libero_data.tasks import get_suite
+
+        source = get_suite(variants_of)
+        chosen_kinds = split(kinds) or KINDS
+        bad = [k for k in chosen_kinds if k not in KINDS]
+        if bad:
+            raise ValueError(f"unknown variant kind {bad[0]!r}; known: {', '.join(KINDS)}")
+        chosen = tuple(str(source.task(t).index) for t in tasks or [])
+        n = (len(chosen) or len(source.tasks)) * len(chosen_kinds)
+        settings = ProceduralSettings(
+            n=n, seed=seed, variants_of=variants_of, kinds=tuple(chosen_kinds), tasks=chosen
+        )
+    else:
+        settings = ProceduralSettings(n=n, seed=seed, scenes=split(scenes), templates=split(templates))
+    kept = 0
+    columns = [
+        TextColumn("tasks"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("kept {task.fields[kept]} · {task.fields[last]}"),
+        TimeElapsedColumn(),
+    ]
+    with Progress(*columns, console=_console(stderr=True)) as bar:
+        job = bar.add_task("tasks", total=n, kept=0, last="")
+
+        def seen(v: Any) -> None:
+            nonlocal kept
+            kept += v.kept
+            bar.update(job, advance=1, kept=kept, last=(v.language or v.reason)[:60])
+
+        try:
+            verdicts = make_suite(out, settings, workers=workers, on_verdict=seen)
+        except KeyboardInterrupt:
+            raise fail(
+                f"interrupted; checked tasks are kept in {out}, run the same command to continue", code=130
+            ) from None
+    kept_n = sum(v.kept for v in verdicts)
+    _console().print(
+        f"procedural: {kept_n} of {n} sampled tasks kept (report: {out / 'procedural_report.md'})",
+        markup=False,
+    )
+    if kept_n == 0:
+        raise fail(f"none of the {n} sampled tasks was kept; see {out / 'procedural_report.md'}")
+    return out
+
+
+@app.command("scenes")
+def scenes_cmd() -> None:
+    """List the scene layouts and behaviour templates that `generate --procedural` samples from."""
+    from rich.table import Table
+
+    from libero_data.procedural.catalogue import load_catalogue
+    from libero_data.procedural.templates import TEMPLATES
+
+    cat = load_catalogue()
+    table = Table("scene", "kind", "fixtures", "object spots", "from shipped tasks")
+    for key, scene in cat.scenes.items():
+        fixtures = ", ".join(f.category for f in scene.fixtures) or "—"
+        table.add_row(key, scene.kind, fixtures, str(len(scene.boxes)), str(len(scene.sources)))
+    _console().print(table)
+    templates = Table("template", "instruction", "goal", "starts with")
+    for t in TEMPLATES.values():
+        templates.add_row(t.name, t.pattern, " ∧ ".join(t.goal), " ∧ ".join(t.init) or "—")
+    _console().print(templates)
 
 
 @app.command("validate")

@@ -351,7 +351,10 @@ def _check_out_dir(out: Path, request: GenerateRequest) -> None:
                 "use the same command to continue it, or another --out"
             )
         return
-    if out.exists() and any(p.name != WORK for p in out.iterdir()):
+    from libero_data.procedural.suite import SUITE_FILES
+
+    # A procedural suite's own files (tasks, suite.json, report) may share the folder.
+    if out.exists() and any(p.name not in (WORK, *SUITE_FILES) for p in out.iterdir()):
         raise GenerateError(
             f"{out} is not empty and is not a libero-data dataset; choose an empty or new folder"
         )
@@ -625,6 +628,20 @@ def _describe(
         "complete": "yes" if complete else "no (generation still running or interrupted)",
         **{f"version: {k}": v for k, v in vers.items()},
     }
+    manifest = suite.path / "suite.json" if suite.path is not None else None
+    if manifest is not None and manifest.is_file():
+        generator = json.loads(manifest.read_text()).get("generator")
+        if generator:
+            g = generator["settings"]
+            settings["procedural generator: seed"] = str(g["seed"])
+            settings["procedural generator: candidates / kept"] = (
+                f"{generator.get('candidates', g['n'])} / {len(suite.tasks)}"
+            )
+            settings["procedural generator: settings"] = json.dumps(g, sort_keys=True)
+            settings["procedural generator: acceptance"] = (
+                f"the expert solved at least half of {g['check_inits']} initial states drawn by LIBERO's sampler "
+                "(every candidate and its verdict: procedural_report.md)"
+            )
     stored = min(request.episodes_per_task, STORED_INITS)
     start_note = (
         f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k); "

@@ -1,0 +1,1 @@
+"""Procedural LIBERO-style tasks: catalogue, behaviour templates, sampler and feasibility."""

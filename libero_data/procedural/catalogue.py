@@ -1,0 +1,322 @@
+"""What procedural tasks are made of: scene layouts and objects, as data.
+
+``catalogue.json`` beside this module is built from the 130 shipped BDDL files and the
+shipped assets by :func:`build_catalogue` (``python -m libero_data.procedural.catalogue``):
+
+- a **scene** is one fixture layout LIBERO uses: the problem class (kitchen, living room,
+  study, tabletop, floor), the table fixture, the other fixtures with their placement
+  regions and the regions they carry (drawers, cook region, ...), and the rectangles where
+  LIBERO's own tasks put movable objects in that layout (new objects are placed there, so
+  they never start inside a fixture);
+- an **object** is an asset category with its measured footprint (radius and height, from
+  the simulator's collision geometry), whether the expert can grasp it, and the regions it
+  carries when it is a container (a basket's ``contain_region``).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+_HERE = Path(__file__).parent
+CATALOGUE_PATH = _HERE / "catalogue.json"
+
+#: Problem classes and the short names scenes are called by.
+SCENE_KINDS = {
+    "LIBERO_Kitchen_Tabletop_Manipulation": "kitchen",
+    "LIBERO_Living_Room_Tabletop_Manipulation": "living_room",
+    "LIBERO_Study_Tabletop_Manipulation": "study",
+    "LIBERO_Tabletop_Manipulation": "tabletop",
+    "LIBERO_Floor_Manipulation": "floor",
+}
+#: Flat objects that are pushed, never grasped (the expert's planner agrees).
+NOT_GRASPABLE = {"plate"}
+
+
+@dataclass(frozen=True)
+class FixtureSpec:
+    name: str
+    category: str
+    ranges: tuple[float, float, float, float]
+    yaw: tuple[float, float] | None
+    regions: tuple[str, ...]  # regions the fixture carries (``top_region``, ``cook_region``, ...)
+    drawers: tuple[str, ...]  # of those, the ones that open and close
+    door: bool  # the fixture itself opens (a microwave)
+    knob: bool  # it turns on and off (a stove)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    id: str
+    kind: str
+    problem: str
+    table: str
+    table_category: str
+    fixtures: tuple[FixtureSpec, ...]
+    boxes: tuple[tuple[float, float, float, float], ...]  # where movable objects may start
+    sources: tuple[str, ...]  # shipped tasks with this layout
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    category: str
+    radius: float
+    height: float
+    graspable: bool
+    regions: tuple[str, ...]  # regions the object carries (containers)
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    scenes: dict[str, SceneSpec]
+    objects: dict[str, ObjectSpec]
+    seen_in: dict[str, dict[str, list[str]]]  # scene kind -> object category -> shipped tasks
+
+
+def _scene_from_json(key: str, d: dict[str, Any]) -> SceneSpec:
+    fixtures = tuple(
+        FixtureSpec(
+            f["name"],
+            f["category"],
+            tuple(f["ranges"]),
+            tuple(f["yaw"]) if f["yaw"] is not None else None,
+            tuple(f["regions"]),
+            tuple(f["drawers"]),
+            bool(f["door"]),
+            bool(f["knob"]),
+        )
+        for f in d["fixtures"]
+    )
+    return SceneSpec(
+        key,
+        d["kind"],
+        d["problem"],
+        d["table"],
+        d["table_category"],
+        fixtures,
+        tuple(tuple(b) for b in d["boxes"]),
+        tuple(d["sources"]),
+    )
+
+
+@functools.cache
+def load_catalogue(path: str | None = None) -> Catalogue:
+    data = json.loads(Path(path or CATALOGUE_PATH).read_text())
+    scenes = {k: _scene_from_json(k, v) for k, v in data["scenes"].items()}
+    objects = {
+        k: ObjectSpec(k, float(v["radius"]), float(v["height"]), bool(v["graspable"]), tuple(v["regions"]))
+        for k, v in data["objects"].items()
+    }
+    return Catalogue(scenes, objects, data["seen_in"])
+
+
+# --------------------------------------------------------------------------------------------
+# building the catalogue from the shipped tasks (needs the simulator; run once, output committed)
+
+
+def build_catalogue() -> dict[str, Any]:
+    """Mine the shipped suites' BDDL files and measure the assets' footprints."""
+    import numpy as np
+
+    from libero_data.bddl.model import atoms
+    from libero_data.tasks import get_suite
+
+    tasks = [
+        t
+        for s in ("libero_spatial", "libero_object", "libero_goal", "libero_10", "libero_90")
+        for t in get_suite(s).tasks
+    ]
+    opened: dict[tuple[str, str], set[str]] = {}  # (fixture category, region) -> predicates seen
+    doors: set[str] = set()
+    knobs: set[str] = set()
+    moved: set[str] = set()
+    for task in tasks:
+        p = task.problem
+        for atom in list(atoms(p.goal)) + list(p.init):
+            if atom.predicate in ("Open", "Close"):
+                arg = atom.args[0]
+                for f in p.fixtures:
+                    if arg == f.name:
+                        doors.add(f.category)
+                    elif arg.startswith(f.name + "_"):
+                        opened.setdefault((f.category, arg[len(f.name) + 1 :]), set()).add(atom.predicate)
+            if atom.predicate in ("Turnon", "Turnoff"):
+                knobs.add(p.category_of(atom.args[0]))
+        for atom in atoms(p.goal):
+            if atom.predicate in ("On", "In") and atom.args[0] in {o.name for o in p.objects}:
+                moved.add(p.category_of(atom.args[0]))
+
+    layouts: dict[tuple[Any, ...], dict[str, Any]] = {}
+    object_regions: dict[str, set[str]] = {}
+    seen_in: dict[str, dict[str, list[str]]] = {}
+    for task in tasks:
+        p = task.problem
+        table = next(f for f in p.fixtures if f.category in _TABLES)
+        fixture_regions = {}
+        for f in p.fixtures:
+            if f is table:
+                continue
+            init = next(
+                (r for r in p.regions if r.target == table.name and r.name == f"{f.category}_init_region"),
+                None,
+            )
+            if init is None:
+                init = _region_of(p, f.name, table.name)
+            carried = sorted(r.name for r in p.regions if r.target == f.name)
+            fixture_regions[f.name] = (f.category, init, carried)
+        key = (
+            p.problem,
+            tuple(
+                sorted(
+                    (c, tuple(np.round(i.ranges[0], 2)) if i else None)
+                    for c, i, _ in fixture_regions.values()
+                )
+            ),
+        )
+        entry = layouts.setdefault(
+            key,
+            {
+                "problem": p.problem,
+                "table": table.name,
+                "table_category": table.category,
+                "fixtures": {},
+                "boxes": set(),
+                "sources": [],
+            },
+        )
+        entry["sources"].append(task.id)
+        for name, (category, init, carried) in fixture_regions.items():
+            spec = entry["fixtures"].setdefault(
+                name,
+                {
+                    "name": name,
+                    "category": category,
+                    "ranges": list(init.ranges[0]) if init else None,
+                    "yaw": list(init.yaw_rotation) if init and init.yaw_rotation else None,
+                    "regions": set(),
+                },
+            )
+            spec["regions"].update(carried)
+        objects = {o.name: o.category for o in p.objects}
+        kind = SCENE_KINDS[p.problem]
+        for o in p.objects:
+            seen_in.setdefault(kind, {}).setdefault(o.category, []).append(task.id)
+        for r in p.regions:
+            if r.target in objects:
+                object_regions.setdefault(objects[r.target], set()).add(r.name)
+        for atom in p.init:
+            if (
+                atom.predicate == "On"
+                and atom.args[0] in objects
+                and atom.args[1].startswith(table.name + "_")
+            ):
+                region = p.region(atom.args[1])
+                for box in region.ranges:
+                    entry["boxes"].add(tuple(round(v, 4) for v in box))
+
+    scenes: dict[str, Any] = {}
+    counts: dict[str, int] = {}
+    for entry in sorted(layouts.values(), key=lambda e: (SCENE_KINDS[e["problem"]], e["sources"][0])):
+        kind = SCENE_KINDS[entry["problem"]]
+        categories = sorted({f["category"] for f in entry["fixtures"].values()})
+        base = "_".join([kind, *categories]) if categories else kind
+        counts[base] = counts.get(base, 0) + 1
+        scene_id = base if counts[base] == 1 else f"{base}_{counts[base]}"
+        fixtures = []
+        for f in entry["fixtures"].values():
+            drawers = sorted(
+                r
+                for r in f["regions"]
+                if "Open" in opened.get((f["category"], r), set())
+                or "Close" in opened.get((f["category"], r), set())
+            )
+            fixtures.append(
+                {
+                    "name": f["name"],
+                    "category": f["category"],
+                    "ranges": f["ranges"],
+                    "yaw": f["yaw"],
+                    "regions": sorted(f["regions"]),
+                    "drawers": drawers,
+                    "door": f["category"] in doors,
+                    "knob": f["category"] in knobs,
+                }
+            )
+        scenes[scene_id] = {
+            "kind": kind,
+            "problem": entry["problem"],
+            "table": entry["table"],
+            "table_category": entry["table_category"],
+            "fixtures": fixtures,
+            "boxes": sorted(entry["boxes"]),
+            "sources": entry["sources"],
+        }
+
+    footprints = _measure_footprints(tasks)
+    object_specs: dict[str, Any] = {
+        category: {
+            "radius": round(footprints[category][0], 4),
+            "height": round(footprints[category][1], 4),
+            "graspable": category in moved and category not in NOT_GRASPABLE,
+            "regions": sorted(object_regions.get(category, ())),
+        }
+        for category in sorted(footprints)
+    }
+    return {"scenes": scenes, "objects": object_specs, "seen_in": seen_in}
+
+
+_TABLES = {
+    "kitchen_table",
+    "living_room_table",
+    "study_table",
+    "table",
+    "floor",
+    "main_table",
+    "coffee_table",
+}
+
+
+def _region_of(p: Any, name: str, table: str) -> Any:
+    """The table region a fixture is placed in, from the init predicates."""
+    for atom in p.init:
+        if atom.predicate == "On" and atom.args[0] == name and atom.args[1].startswith(table + "_"):
+            return p.region(atom.args[1])
+    return None
+
+
+def _measure_footprints(tasks: list[Any]) -> dict[str, tuple[float, float]]:
+    """(radius about the centre in the table plane, height) of every movable category."""
+    import numpy as np
+
+    from libero_data.experts.scene import SceneView
+    from libero_data.sim import EnvConfig, LiberoEnv
+
+    out: dict[str, tuple[float, float]] = {}
+    for task in tasks:
+        missing = {o.category for o in task.problem.objects} - set(out)
+        if not missing:
+            continue
+        with LiberoEnv(task, EnvConfig(cameras=())) as env:
+            env.reset(task.init_states()[0], seed=0, render=False, settle=20)
+            scene = SceneView(env)
+            for o in task.problem.objects:
+                if o.category not in missing or o.category in out:
+                    continue
+                pts = scene.points(o.name)
+                centre = (pts[:, :2].max(0) + pts[:, :2].min(0)) / 2
+                radius = float(np.linalg.norm(pts[:, :2] - centre, axis=1).max())
+                out[o.category] = (radius, float(np.ptp(pts[:, 2])))
+    return out
+
+
+def main() -> None:
+    data = build_catalogue()
+    CATALOGUE_PATH.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    print(f"wrote {CATALOGUE_PATH}: {len(data['scenes'])} scenes, {len(data['objects'])} object categories")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,253 @@
+"""Behaviour templates, taken from the language of the 130 shipped tasks.
+
+Each template names the goal predicates it produces, the initial predicates it needs (a
+drawer that starts open so it can be closed), and its sentence. :func:`instantiate` fills a
+template for one scene with objects drawn by the caller's random generator; it returns
+``None`` where the scene cannot host the template (no stove, no drawer, no container).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from libero_data.bddl.model import Atom
+from libero_data.procedural.catalogue import Catalogue, FixtureSpec, SceneSpec
+
+#: How objects are called in instructions (the category's words otherwise).
+DISPLAY = {
+    "akita_black_bowl": "black bowl",
+    "chefmate_8_frypan": "frying pan",
+    "glazed_rim_porcelain_ramekin": "ramekin",
+    "porcelain_mug": "white mug",
+    "white_yellow_mug": "yellow and white mug",
+    "new_salad_dressing": "salad dressing",
+    "desk_caddy": "caddy",
+    "wooden_tray": "tray",
+    "wooden_cabinet": "cabinet",
+    "white_cabinet": "cabinet",
+    "flat_stove": "stove",
+    "wooden_two_layer_shelf": "shelf",
+}
+LEVEL = {"top_region": "top", "middle_region": "middle", "bottom_region": "bottom"}
+CADDY_SIDE = {
+    "back_contain_region": "back",
+    "front_contain_region": "front",
+    "left_contain_region": "left",
+    "right_contain_region": "right",
+}
+
+
+def display(category: str) -> str:
+    return DISPLAY.get(category, category.replace("_", " "))
+
+
+@dataclass(frozen=True)
+class Template:
+    name: str
+    pattern: str  # the sentence, with {x}, {y}, {container}, {level}, {side}
+    goal: tuple[str, ...]  # the goal predicates, for the catalogue's documentation
+    init: tuple[str, ...] = ()  # initial predicates the template sets
+
+
+TEMPLATES: dict[str, Template] = {
+    t.name: t
+    for t in (
+        Template("put_on_plate", "put the {x} on the plate", ("On",)),
+        Template("put_in_container", "put the {x} in the {container}", ("In",)),
+        Template("put_both_in_container", "put both the {x} and the {y} in the {container}", ("In", "In")),
+        Template("open_drawer", "open the {level} drawer of the cabinet", ("Open",)),
+        Template("close_drawer", "close the {level} drawer of the cabinet", ("Close",), ("Open",)),
+        Template(
+            "put_in_drawer_and_close",
+            "put the {x} in the {level} drawer of the cabinet and close it",
+            ("In", "Close"),
+            ("Open",),
+        ),
+        Template("turn_on_stove", "turn on the stove", ("Turnon",)),
+        Template("turn_off_stove", "turn off the stove", ("Turnoff",), ("Turnon",)),
+        Template("put_on_stove", "put the {x} on the stove", ("On",)),
+        Template("turn_on_stove_and_put", "turn on the stove and put the {x} on it", ("Turnon", "On")),
+        Template("put_on_cabinet", "put the {x} on top of the cabinet", ("On",)),
+        Template("open_microwave", "open the microwave", ("Open",)),
+        Template("close_microwave", "close the microwave", ("Close",), ("Open",)),
+        Template("put_in_caddy", "put the {x} in the {side} compartment of the caddy", ("In",)),
+    )
+}
+
+
+@dataclass
+class Draft:
+    """A template filled for a scene: the movable objects it needs and its predicates."""
+
+    template: str
+    language: str
+    objects: list[str]  # categories of the movable objects the task is about (placed by the sampler)
+    goal: list[Atom]
+    init: list[Atom] = field(default_factory=list)
+    interest: list[str] = field(default_factory=list)  # instance names
+
+
+def _fixture(
+    scene: SceneSpec,
+    *,
+    drawers: bool = False,
+    knob: bool = False,
+    door: bool = False,
+    category: str | None = None,
+) -> FixtureSpec | None:
+    for f in scene.fixtures:
+        if (
+            (drawers and f.drawers)
+            or (knob and f.knob)
+            or (door and f.door)
+            or (category and f.category == category)
+        ):
+            return f
+    return None
+
+
+def _movers(
+    catalogue: Catalogue, scene: SceneSpec, *, max_radius: float, max_height: float = 1.0
+) -> list[str]:
+    """Graspable categories small enough for the destination, seen in this kind of scene first."""
+    out = [
+        c
+        for c, spec in sorted(catalogue.objects.items())
+        if spec.graspable and spec.radius <= max_radius and spec.height <= max_height
+    ]
+    return out
+
+
+def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.random.Generator) -> Draft | None:
+    """Fill template ``name`` for ``scene``; None where the scene cannot host it."""
+    t = TEMPLATES[name]
+
+    def pick(options: list[str], k: int = 1) -> list[str] | None:
+        if len(options) < k:
+            return None
+        idx = rng.choice(len(options), size=k, replace=False)
+        return [options[int(i)] for i in idx]
+
+    def inst(category: str) -> str:
+        return f"{category}_1"
+
+    if name == "put_on_plate":
+        xs = pick(_movers(catalogue, scene, max_radius=0.06, max_height=0.11))
+        if xs is None:
+            return None
+        x = xs[0]
+        return Draft(
+            name,
+            t.pattern.format(x=display(x)),
+            [x, "plate"],
+            [Atom("On", (inst(x), "plate_1"))],
+            interest=[inst(x), "plate_1"],
+        )
+    if name in ("put_in_container", "put_both_in_container"):
+        containers: list[str] = [c for c in ("basket", "wooden_tray") if c in catalogue.objects]
+        if scene.kind not in ("living_room", "floor"):
+            return None  # big containers only where LIBERO puts them (open floor and living-room tables)
+        container = pick(containers)
+        if container is None:
+            return None
+        c = container[0]
+        movers = _movers(catalogue, scene, max_radius=0.05, max_height=0.15)
+        k = 2 if name == "put_both_in_container" else 1
+        xs = pick(movers, k)
+        if xs is None:
+            return None
+        region = f"{inst(c)}_contain_region"
+        goal = [Atom("In", (inst(x), region)) for x in xs]
+        words = {"x": display(xs[0]), "y": display(xs[-1]), "container": display(c)}
+        return Draft(name, t.pattern.format(**words), [*xs, c], goal, interest=[*map(inst, xs), inst(c)])
+    if name in ("open_drawer", "close_drawer", "put_in_drawer_and_close"):
+        f = _fixture(scene, drawers=True)
+        if f is None:
+            return None
+        level = pick([d for d in f.drawers if d in LEVEL])
+        if level is None:
+            return None
+        region = f"{f.name}_{level[0]}"
+        words = {"level": LEVEL[level[0]]}
+        if name == "open_drawer":
+            return Draft(name, t.pattern.format(**words), [], [Atom("Open", (region,))], interest=[f.name])
+        if name == "close_drawer":
+            return Draft(
+                name,
+                t.pattern.format(**words),
+                [],
+                [Atom("Close", (region,))],
+                [Atom("Open", (region,))],
+                [f.name],
+            )
+        xs = pick(_movers(catalogue, scene, max_radius=0.05, max_height=0.06))
+        if xs is None:
+            return None
+        x = xs[0]
+        return Draft(
+            name,
+            t.pattern.format(x=display(x), **words),
+            [x],
+            [Atom("In", (inst(x), region)), Atom("Close", (region,))],
+            [Atom("Open", (region,))],
+            [inst(x), f.name],
+        )
+    if name in ("turn_on_stove", "turn_off_stove", "put_on_stove", "turn_on_stove_and_put"):
+        f = _fixture(scene, knob=True)
+        if f is None:
+            return None
+        if name == "turn_on_stove":
+            return Draft(name, t.pattern, [], [Atom("Turnon", (f.name,))], interest=[f.name])
+        if name == "turn_off_stove":
+            return Draft(
+                name, t.pattern, [], [Atom("Turnoff", (f.name,))], [Atom("Turnon", (f.name,))], [f.name]
+            )
+        xs = pick(_movers(catalogue, scene, max_radius=0.08, max_height=0.16))
+        if xs is None:
+            return None
+        x = xs[0]
+        goal = [Atom("On", (inst(x), f"{f.name}_cook_region"))]
+        if name == "turn_on_stove_and_put":
+            goal = [Atom("Turnon", (f.name,)), *goal]
+        return Draft(name, t.pattern.format(x=display(x)), [x], goal, interest=[inst(x), f.name])
+    if name == "put_on_cabinet":
+        f = _fixture(scene, drawers=True)
+        if f is None or "top_side" not in f.regions:
+            return None
+        xs = pick(_movers(catalogue, scene, max_radius=0.06, max_height=0.11))
+        if xs is None:
+            return None
+        x = xs[0]
+        return Draft(
+            name,
+            t.pattern.format(x=display(x)),
+            [x],
+            [Atom("On", (inst(x), f"{f.name}_top_side"))],
+            interest=[inst(x), f.name],
+        )
+    if name in ("open_microwave", "close_microwave"):
+        f = _fixture(scene, door=True)
+        if f is None:
+            return None
+        if name == "open_microwave":
+            return Draft(name, t.pattern, [], [Atom("Open", (f.name,))], interest=[f.name])
+        return Draft(name, t.pattern, [], [Atom("Close", (f.name,))], [Atom("Open", (f.name,))], [f.name])
+    if name == "put_in_caddy":
+        f = _fixture(scene, category="desk_caddy")
+        if f is None:
+            return None
+        side = pick([r for r in f.regions if r in CADDY_SIDE])
+        xs = pick(_movers(catalogue, scene, max_radius=0.045, max_height=0.15))
+        if side is None or xs is None:
+            return None
+        x = xs[0]
+        return Draft(
+            name,
+            t.pattern.format(x=display(x), side=CADDY_SIDE[side[0]]),
+            [x],
+            [Atom("In", (inst(x), f"{f.name}_{side[0]}"))],
+            interest=[inst(x), f.name],
+        )
+    raise KeyError(f"unknown behaviour template {name!r}; known: {', '.join(TEMPLATES)}")

@@ -1,0 +1,287 @@
+"""Robustness variants of shipped tasks: each differs from its source in one requested way.
+
+- ``layout``: the movable objects start in new places (the scene's object rectangles, at
+  least :data:`MOVED` away from where the source task puts them);
+- ``distractors``: one or two objects the task is not about are added;
+- ``swap``: the object the task moves is replaced by another of the same kind (a white
+  bowl for the black one, ketchup for the tomato sauce), instruction updated;
+- ``language``: the instruction is paraphrased; the BDDL is otherwise unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from collections.abc import Iterable, Iterator
+from typing import Any
+
+import numpy as np
+
+from libero_data.bddl.model import Atom, Entity, Problem, Region, atoms
+from libero_data.procedural.catalogue import Catalogue, SceneSpec, load_catalogue
+from libero_data.procedural.sampler import GAP, HALF_WIDTH, SampledTask, SamplingError
+from libero_data.procedural.templates import display
+
+KINDS = ("layout", "distractors", "swap", "language")
+MOVED = 0.06  # metres between a moved object's new centre and its source region's centre
+
+#: Objects that can stand in for each other.
+KIND_GROUPS = (
+    ("akita_black_bowl", "white_bowl"),
+    ("alphabet_soup", "tomato_sauce"),
+    ("bbq_sauce", "ketchup", "salad_dressing"),
+    ("milk", "orange_juice"),
+    ("butter", "cream_cheese", "chocolate_pudding"),
+    ("porcelain_mug", "red_coffee_mug", "white_yellow_mug"),
+    ("black_book", "yellow_book"),
+)
+
+#: Paraphrase rules, tried in order (the first that applies is used).
+PARAPHRASES = (
+    (r"^pick up the (.+) and place it in the (.+)$", r"grab the \1 and put it into the \2"),
+    (r"^put both the (.+) and the (.+) in the (.+)$", r"place the \1 and the \2 into the \3"),
+    (r"^put the (.+) in the (.+) and close it$", r"place the \1 into the \2, then shut it"),
+    (r"^turn on the stove and put the (.+) on it$", r"switch the stove on and set the \1 on it"),
+    (r"^put the (.+) on top of the (.+)$", r"set the \1 on the top of the \2"),
+    (r"^put the (.+) in the (.+)$", r"place the \1 into the \2"),
+    (r"^put the (.+) on the (.+)$", r"set the \1 down on the \2"),
+    (r"^place the (.+) on the (.+)$", r"put the \1 onto the \2"),
+    (r"^pick the (.+) and place it on the (.+)$", r"take the \1 and set it on the \2"),
+    (r"^pick up the (.+) and place it on the (.+)$", r"take the \1 and set it on the \2"),
+    (r"^stack the (.+) on the (.+)$", r"put the \1 on top of the \2"),
+    (r"^open the (.+)$", r"pull the \1 open"),
+    (r"^close the (.+)$", r"shut the \1"),
+    (r"^turn on the (.+)$", r"switch on the \1"),
+    (r"^turn off the (.+)$", r"switch off the \1"),
+    (r"^push the (.+) to the (.+)$", r"slide the \1 over to the \2"),
+)
+
+
+def paraphrase(language: str) -> str:
+    language = language.strip().lower()
+    for pattern, repl in PARAPHRASES:
+        if re.match(pattern, language):
+            return re.sub(pattern, repl, language)
+    return f"please {language}"
+
+
+def scene_of(task_id: str, catalogue: Catalogue) -> SceneSpec | None:
+    for scene in catalogue.scenes.values():
+        if task_id in scene.sources:
+            return scene
+    return None
+
+
+def _table_starts(problem: Problem, table: str) -> dict[str, Region]:
+    """Movable objects that start on the table, with their init region (not used by the goal)."""
+    goal_names = {a for atom in atoms(problem.goal) for a in atom.args}
+    objects = {o.name for o in problem.objects}
+    out = {}
+    for atom in problem.init:
+        if atom.predicate == "On" and atom.args[0] in objects and atom.args[1].startswith(table + "_"):
+            region = problem.region(atom.args[1])
+            if atom.args[1] not in goal_names and region.ranges:
+                out[atom.args[0]] = region
+    return out
+
+
+def _centre(region: Region) -> tuple[float, float]:
+    x0, y0, x1, y1 = region.ranges[0]
+    return (x0 + x1) / 2, (y0 + y1) / 2
+
+
+def _square(name: str, table: str, x: float, y: float) -> Region:
+    box = (
+        round(x - HALF_WIDTH, 4),
+        round(y - HALF_WIDTH, 4),
+        round(x + HALF_WIDTH, 4),
+        round(y + HALF_WIDTH, 4),
+    )
+    return Region(name, table, (box,), (0.0, 0.0))
+
+
+def _replace_starts(problem: Problem, table: str, new: dict[str, tuple[float, float]]) -> Problem:
+    """Give each object in ``new`` its own init square at the given centre."""
+    regions = list(problem.regions)
+    init = []
+    for atom in problem.init:
+        if atom.predicate == "On" and atom.args[0] in new:
+            name = f"{atom.args[0]}_variant_init_region"
+            regions.append(_square(name, table, *new[atom.args[0]]))
+            init.append(Atom("On", (atom.args[0], f"{table}_{name}")))
+        else:
+            init.append(atom)
+    used = {a for atom in [*init, *atoms(problem.goal)] for a in atom.args}
+    regions = [r for r in regions if r.target != table or r.full_name in used]
+    return dataclasses.replace(problem, regions=tuple(regions), init=tuple(init))
+
+
+def _free_centre(
+    rng: np.random.Generator,
+    scene: SceneSpec,
+    radius: float,
+    taken: list[tuple[float, float, float]],
+    avoid: tuple[float, float] | None = None,
+) -> tuple[float, float] | None:
+    boxes = np.asarray(scene.boxes, dtype=float)
+    for _ in range(300):
+        x0, y0, x1, y1 = boxes[rng.integers(len(boxes))]
+        c = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)))
+        if avoid is not None and np.hypot(c[0] - avoid[0], c[1] - avoid[1]) < MOVED:
+            continue
+        if all(np.hypot(c[0] - x, c[1] - y) >= radius + r + GAP + 2 * HALF_WIDTH for x, y, r in taken):
+            return c
+    return None
+
+
+def make_variant(
+    source: Problem,
+    task_id: str,
+    kind: str,
+    rng: np.random.Generator,
+    catalogue: Catalogue | None = None,
+    language: str | None = None,
+) -> Problem:
+    """One ``kind`` variant of ``source``; raises :class:`SamplingError` where none fits.
+
+    ``language`` is the instruction policies are given (the task's; default the BDDL's).
+    Every variant carries it in its BDDL (``:language``).
+    """
+    catalogue = catalogue or load_catalogue()
+    if kind not in KINDS:
+        raise SamplingError(f"unknown variant kind {kind!r}; known: {', '.join(KINDS)}")
+    language = (language or source.language).strip().lower()
+    source = dataclasses.replace(source, language=language)
+    if kind == "language":
+        return dataclasses.replace(source, language=paraphrase(language))
+    scene = scene_of(task_id, catalogue)
+    if scene is None:
+        raise SamplingError(f"{task_id} has no scene layout in the catalogue")
+    table = scene.table
+    category = {o.name: o.category for o in source.objects}
+    radius = {n: catalogue.objects[c].radius if c in catalogue.objects else 0.05 for n, c in category.items()}
+    starts = _table_starts(source, table)
+    if kind == "layout":
+        if not starts:
+            raise SamplingError(f"{task_id}: no object starts on the table")
+        fixed = [
+            (*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items() if n not in starts
+        ]
+        taken = list(fixed)
+        new: dict[str, tuple[float, float]] = {}
+        for name in sorted(starts, key=lambda n: -radius[n]):
+            c = _free_centre(rng, scene, radius[name], taken, avoid=_centre(starts[name]))
+            if c is None:
+                raise SamplingError(f"{task_id}: no new place for {name}")
+            new[name] = c
+            taken.append((*c, radius[name]))
+        return _replace_starts(source, table, new)
+    if kind == "distractors":
+        present = set(category.values())
+        seen = catalogue.seen_in.get(scene.kind, {})
+        pool = [
+            c
+            for c, spec in sorted(catalogue.objects.items())
+            if c not in present and spec.graspable and spec.radius <= 0.07 and c in seen
+        ]
+        k = int(rng.integers(1, 3))
+        chosen = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
+        taken = [(*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items()]
+        regions, objects, init = list(source.regions), list(source.objects), list(source.init)
+        for extra in chosen:
+            spot = _free_centre(rng, scene, catalogue.objects[extra].radius, taken)
+            if spot is None:
+                continue
+            name = f"{extra}_1"
+            region = f"{extra}_init_region"
+            regions.append(_square(region, table, *spot))
+            objects.append(Entity(name, extra))
+            init.append(Atom("On", (name, f"{table}_{region}")))
+            taken.append((*spot, catalogue.objects[extra].radius))
+        if len(objects) == len(source.objects):
+            raise SamplingError(f"{task_id}: no room for a distractor")
+        return dataclasses.replace(source, regions=tuple(regions), objects=tuple(objects), init=tuple(init))
+    # swap
+    moved = next(
+        (a.args[0] for a in atoms(source.goal) if a.predicate in ("On", "In") and a.args[0] in category), None
+    )
+    if moved is None:
+        raise SamplingError(f"{task_id}: the goal moves no object")
+    old = category[moved]
+    group = next((g for g in KIND_GROUPS if old in g), None)
+    present = set(category.values())
+    options = [c for c in (group or ()) if c != old and c not in present]
+    words = display(old)
+    if not re.search(rf"\b{re.escape(words)}\b", language):
+        words = "the " + words.split()[-1]  # "put the bowl ..." for the black bowl
+    if not options or not re.search(rf"\b{re.escape(words)}\b", language):
+        raise SamplingError(f"{task_id}: no object of the same kind can stand in for {old}")
+    new_cat = options[int(rng.integers(len(options)))]
+    new_name = f"{new_cat}_1"
+
+    def rename(name: str) -> str:
+        if name == moved:
+            return new_name
+        if name.startswith(moved + "_"):
+            return new_name + name[len(moved) :]
+        return name
+
+    def swap_atom(a: Atom) -> Atom:
+        return Atom(a.predicate, tuple(rename(x) for x in a.args))
+
+    def swap_formula(f: Any) -> Any:
+        if isinstance(f, Atom):
+            return swap_atom(f)
+        if hasattr(f, "terms"):
+            return type(f)(tuple(swap_formula(t) for t in f.terms))
+        return type(f)(swap_formula(f.term))
+
+    return dataclasses.replace(
+        source,
+        language=re.sub(
+            rf"\b{re.escape(words)}\b",
+            ("the " if words.startswith("the ") else "") + display(new_cat),
+            language,
+            count=1,
+        ),
+        regions=tuple(dataclasses.replace(r, target=rename(r.target)) for r in source.regions),
+        objects=tuple(Entity(new_name, new_cat) if o.name == moved else o for o in source.objects),
+        obj_of_interest=tuple(rename(n) for n in source.obj_of_interest),
+        init=tuple(swap_atom(a) for a in source.init),
+        goal=swap_formula(source.goal),
+    )
+
+
+def _table_starts_all(problem: Problem, table: str) -> dict[str, Region]:
+    objects = {o.name for o in problem.objects}
+    out = {}
+    for atom in problem.init:
+        if atom.predicate == "On" and atom.args[0] in objects and atom.args[1].startswith(table + "_"):
+            region = problem.region(atom.args[1])
+            if region.ranges:
+                out[atom.args[0]] = region
+    return out
+
+
+def variant_tasks(
+    suite: str, kinds: Iterable[str], seed: int, tasks: Iterable[str] | None = None
+) -> Iterator[tuple[SampledTask | None, str, str, str]]:
+    """Variants of a shipped suite's tasks, in the order task × kind (as ``sample_tasks``)."""
+    from libero_data.tasks import get_suite
+
+    s = get_suite(suite)
+    chosen = [s.task(t) for t in tasks] if tasks else list(s.tasks)
+    kinds = list(kinds)
+    for k in kinds:
+        if k not in KINDS:
+            raise SamplingError(f"unknown variant kind {k!r}; known: {', '.join(KINDS)}")
+    for task in chosen:
+        for j, kind in enumerate(kinds):
+            rng = np.random.default_rng(np.random.SeedSequence([seed, task.index, j, 0x7A51]))
+            try:
+                problem = make_variant(task.problem, task.id, kind, rng, language=task.language)
+            except SamplingError as exc:
+                yield None, task.id, f"variant:{kind}", str(exc)
+                continue
+            name = f"{task.name}__{kind}"
+            yield SampledTask(name, task.id, f"variant:{kind}", problem), task.id, f"variant:{kind}", ""
