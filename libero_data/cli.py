@@ -410,6 +410,25 @@ def scenes_cmd() -> None:
     _console().print(templates)
 
 
+@app.command("contact-sheet")
+@user_errors
+def contact_sheet_cmd(
+    suite: Annotated[str, typer.Argument(help="Suite name or suite folder (e.g. a procedural suite).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="PNG file to write.")] = Path("contact_sheet.png"),
+    count: Annotated[int, typer.Option("--count", "-n", help="How many tasks (the first N).", min=1)] = 12,
+    size: Annotated[int, typer.Option("--size", help="Frame size in pixels.", min=32, max=512)] = 160,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the expert episodes.")] = 0,
+) -> None:
+    """A PNG grid: first and last agentview frame of one expert episode per task, with its instruction."""
+    from libero_data.procedural.contact_sheet import contact_sheet
+    from libero_data.tasks import get_suite
+
+    tasks = list(get_suite(suite).tasks[:count])
+    with _console().status(f"running the expert on {len(tasks)} task(s)"):
+        path = contact_sheet(tasks, out, size=size, seed=seed)
+    _console().print(f"wrote {path}", markup=False)
+
+
 @app.command("validate")
 @user_errors
 def validate_cmd(

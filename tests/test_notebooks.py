@@ -54,3 +54,10 @@ def test_lifelong_benchmark(tmp_path: Path, tiny_dataset: Path, monkeypatch: pyt
     assert json.loads((run / "results.json").read_text())["complete"]
     report = json.loads((run / "report" / "report.json").read_text())
     assert [g["label"] for g in report["groups"]] == ["er + resnet_t"]
+
+
+@pytest.mark.sim
+def test_procedural_tasks(tmp_path: Path, procedural_suite: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("LIBERO_DATA_NOTEBOOK_PROCEDURAL", str(procedural_suite))
+    run_notebook(NOTEBOOKS / "03_procedural_tasks.ipynb", tmp_path)
+    assert (tmp_path / "contact_sheet.png").stat().st_size > 10_000

@@ -37,3 +37,24 @@ def make_tiny_dataset(out: Path) -> Path:
     result = run_cli("generate", *TINY, "--out", str(out))
     assert result.returncode == 0, result.stderr[-3000:]
     return out
+
+
+#: A two-task procedural suite from quick templates (a stove knob, a drawer), one episode each.
+PROCEDURAL = [
+    "--procedural",
+    "2",
+    "--seed",
+    "0",
+    "--template",
+    "turn_on_stove,open_drawer",
+    "--episodes-per-task",
+    "1",
+    "--image-size",
+    "64",
+]
+
+
+def make_procedural_suite(out: Path) -> Path:
+    result = run_cli("generate", *PROCEDURAL, "--out", str(out))
+    assert result.returncode == 0, result.stderr[-3000:]
+    return out

@@ -129,7 +129,6 @@ def build_catalogue() -> dict[str, Any]:
         for s in ("libero_spatial", "libero_object", "libero_goal", "libero_10", "libero_90")
         for t in get_suite(s).tasks
     ]
-    opened: dict[tuple[str, str], set[str]] = {}  # (fixture category, region) -> predicates seen
     doors: set[str] = set()
     knobs: set[str] = set()
     moved: set[str] = set()
@@ -141,8 +140,6 @@ def build_catalogue() -> dict[str, Any]:
                 for f in p.fixtures:
                     if arg == f.name:
                         doors.add(f.category)
-                    elif arg.startswith(f.name + "_"):
-                        opened.setdefault((f.category, arg[len(f.name) + 1 :]), set()).add(atom.predicate)
             if atom.predicate in ("Turnon", "Turnoff"):
                 knobs.add(p.category_of(atom.args[0]))
         for atom in atoms(p.goal):
@@ -197,9 +194,14 @@ def build_catalogue() -> dict[str, Any]:
                     "ranges": list(init.ranges[0]) if init else None,
                     "yaw": list(init.yaw_rotation) if init and init.yaw_rotation else None,
                     "regions": set(),
+                    "operated": set(),
                 },
             )
             spec["regions"].update(carried)
+            # Drawers this layout's own tasks open or close (reachable ones, in this pose).
+            for atom in [*atoms(p.goal), *p.init]:
+                if atom.predicate in ("Open", "Close") and atom.args[0].startswith(name + "_"):
+                    spec["operated"].add(atom.args[0][len(name) + 1 :])
         objects = {o.name: o.category for o in p.objects}
         kind = SCENE_KINDS[p.problem]
         for o in p.objects:
@@ -227,12 +229,7 @@ def build_catalogue() -> dict[str, Any]:
         scene_id = base if counts[base] == 1 else f"{base}_{counts[base]}"
         fixtures = []
         for f in entry["fixtures"].values():
-            drawers = sorted(
-                r
-                for r in f["regions"]
-                if "Open" in opened.get((f["category"], r), set())
-                or "Close" in opened.get((f["category"], r), set())
-            )
+            drawers = sorted(r for r in f["regions"] if r in f["operated"])
             fixtures.append(
                 {
                     "name": f["name"],

@@ -153,8 +153,9 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
         if container is None:
             return None
         c = container[0]
-        movers = _movers(catalogue, scene, max_radius=0.05, max_height=0.15)
         k = 2 if name == "put_both_in_container" else 1
+        # Two tall bottles in one basket topple each other: both-in takes shorter things.
+        movers = _movers(catalogue, scene, max_radius=0.05, max_height=0.15 if k == 1 else 0.11)
         xs = pick(movers, k)
         if xs is None:
             return None
@@ -239,7 +240,7 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
         if f is None:
             return None
         side = pick([r for r in f.regions if r in CADDY_SIDE])
-        xs = pick(_movers(catalogue, scene, max_radius=0.045, max_height=0.15))
+        xs = pick(_movers(catalogue, scene, max_radius=0.045, max_height=0.09))  # compartments are shallow
         if side is None or xs is None:
             return None
         x = xs[0]

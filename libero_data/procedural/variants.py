@@ -23,6 +23,7 @@ from libero_data.procedural.sampler import GAP, HALF_WIDTH, SampledTask, Samplin
 from libero_data.procedural.templates import display
 
 KINDS = ("layout", "distractors", "swap", "language")
+FIXTURE_CLEARANCE = 0.2  # metres from a fixture's centre to any new object's footprint
 MOVED = 0.06  # metres between a moved object's new centre and its source region's centre
 
 #: Objects that can stand in for each other.
@@ -124,9 +125,13 @@ def _free_centre(
     avoid: tuple[float, float] | None = None,
 ) -> tuple[float, float] | None:
     boxes = np.asarray(scene.boxes, dtype=float)
-    for _ in range(300):
-        x0, y0, x1, y1 = boxes[rng.integers(len(boxes))]
-        c = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)))
+    # The table area LIBERO uses for objects in this layout, kept clear of the fixtures.
+    lo, hi = boxes[:, :2].min(0) - 0.03, boxes[:, 2:].max(0) + 0.03
+    fixtures = [((f.ranges[0] + f.ranges[2]) / 2, (f.ranges[1] + f.ranges[3]) / 2) for f in scene.fixtures]
+    for _ in range(500):
+        c = (float(rng.uniform(lo[0], hi[0])), float(rng.uniform(lo[1], hi[1])))
+        if any(np.hypot(c[0] - fx, c[1] - fy) < FIXTURE_CLEARANCE + radius for fx, fy in fixtures):
+            continue
         if avoid is not None and np.hypot(c[0] - avoid[0], c[1] - avoid[1]) < MOVED:
             continue
         if all(np.hypot(c[0] - x, c[1] - y) >= radius + r + GAP + 2 * HALF_WIDTH for x, y, r in taken):
