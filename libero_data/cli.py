@@ -178,6 +178,13 @@ def generate_cmd(
             help="With --procedural: behaviour templates to sample from (see `libero-data scenes`).",
         ),
     ] = None,
+    tasks_only: Annotated[
+        bool,
+        typer.Option(
+            "--tasks-only",
+            help="With --procedural/--variants-of: stop once the tasks are sampled, checked and written (no dataset).",
+        ),
+    ] = False,
     variants_of: Annotated[
         str | None,
         typer.Option(
@@ -261,8 +268,15 @@ def generate_cmd(
             raise typer.BadParameter("--variants-of makes its own suite; leave out --suite")
         suite = str(_procedural_suite(out, 0, seed, None, None, workers, variants_of, kinds, task_refs))
         task_refs = []
-    elif scene or template or kinds:
-        raise typer.BadParameter("--scene/--template need --procedural, --kinds needs --variants-of")
+    elif scene or template or kinds or tasks_only:
+        raise typer.BadParameter(
+            "--scene/--template need --procedural, --kinds needs --variants-of, --tasks-only needs either"
+        )
+    if tasks_only:
+        _console().print(
+            f"tasks written to {out}; `libero-data tasks --suite {out}` lists them", markup=False
+        )
+        return
     suite = suite or "libero_object"
     request = resolve_request(
         suite,

@@ -20,6 +20,7 @@ from libero_data.procedural.templates import TEMPLATES, Draft, instantiate
 
 #: Default mix (kept tasks across scenes and templates); every template is possible.
 HALF_WIDTH = 0.015  # init squares: LIBERO's sampler draws the object's centre in ±this
+DRAWS_PER_TASK = 5  # distractor draws before a repeated task is rejected as a duplicate
 GAP = 0.02  # free space between two objects' footprints (metres)
 
 
@@ -189,26 +190,33 @@ def sample_tasks(
             for c, spec in sorted(catalogue.objects.items())
             if c not in draft.objects and spec.graspable and spec.radius <= 0.07 and c in seen
         ]
-        k = int(rng.integers(0, max_distractors + 1))
-        distractors = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
-        while True:  # fewer distractors where they do not fit
-            categories = [*draft.objects, *distractors]
-            radii = [catalogue.objects[c].radius for c in categories]
-            order = np.argsort(radii, kind="stable")[::-1]  # big things first
-            centres_sorted = _place(rng, scene, [radii[i] for i in order])
-            if centres_sorted is not None or not distractors:
+        why = ""
+        for _attempt in range(DRAWS_PER_TASK):  # other distractors where a draw repeats a task
+            # A task about a fixture alone still gets objects around (else every draw is the same).
+            k = int(rng.integers(0 if draft.objects else 1, max(max_distractors, 1) + 1))
+            distractors = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
+            while True:  # fewer distractors where they do not fit
+                categories = [*draft.objects, *distractors]
+                radii = [catalogue.objects[c].radius for c in categories]
+                order = np.argsort(radii, kind="stable")[::-1]  # big things first
+                centres_sorted = _place(rng, scene, [radii[i] for i in order])
+                if centres_sorted is not None or not distractors:
+                    break
+                distractors = distractors[:-1]
+            if centres_sorted is None:
+                why = "placement impossible: the objects do not fit the scene's free regions"
                 break
-            distractors = distractors[:-1]
-        if centres_sorted is None:
-            yield None, s, t, "placement impossible: the objects do not fit the scene's free regions"
-            continue
-        centres: list[tuple[float, float]] = [(0.0, 0.0)] * len(categories)
-        for slot, i in enumerate(order):
-            centres[int(i)] = centres_sorted[slot]
-        problem = build_problem(draft, scene, catalogue, distractors, centres)
-        sig = signature(problem)
-        if sig in known:
-            yield None, s, t, "duplicate of a shipped or already sampled task"
+            centres: list[tuple[float, float]] = [(0.0, 0.0)] * len(categories)
+            for slot, i in enumerate(order):
+                centres[int(i)] = centres_sorted[slot]
+            problem = build_problem(draft, scene, catalogue, distractors, centres)
+            sig = signature(problem)
+            if sig not in known:
+                why = ""
+                break
+            why = "duplicate of a shipped or already sampled task"
+        if why:
+            yield None, s, t, why
             continue
         known.add(sig)
         yield SampledTask(task_name(scene, draft.language), s, t, problem), s, t, ""

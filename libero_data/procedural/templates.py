@@ -108,16 +108,23 @@ def _fixture(
     return None
 
 
+#: Graspable, but the scripted expert drops them too often to build tasks on them (the white
+#: bowl's thin flared rim, the frying pan's long handle; see cards/expert_report.md).
+HARD_TO_GRASP = {"white_bowl", "chefmate_8_frypan"}
+
+
 def _movers(
     catalogue: Catalogue, scene: SceneSpec, *, max_radius: float, max_height: float = 1.0
 ) -> list[str]:
-    """Graspable categories small enough for the destination, seen in this kind of scene first."""
-    out = [
+    """Graspable categories that fit the destination (footprint radius and height)."""
+    return [
         c
         for c, spec in sorted(catalogue.objects.items())
-        if spec.graspable and spec.radius <= max_radius and spec.height <= max_height
+        if spec.graspable
+        and c not in HARD_TO_GRASP
+        and spec.radius <= max_radius
+        and spec.height <= max_height
     ]
-    return out
 
 
 def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.random.Generator) -> Draft | None:
