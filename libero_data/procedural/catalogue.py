@@ -43,7 +43,8 @@ class FixtureSpec:
     ranges: tuple[float, float, float, float]
     yaw: tuple[float, float] | None
     regions: tuple[str, ...]  # regions the fixture carries (``top_region``, ``cook_region``, ...)
-    drawers: tuple[str, ...]  # of those, the ones that open and close
+    drawers: tuple[str, ...]  # of those, drawers this layout's shipped tasks open or close
+    closable: tuple[str, ...]  # of those, the ones a shipped task of this layout closes
     door: bool  # the fixture itself opens (a microwave)
     knob: bool  # it turns on and off (a stove)
 
@@ -85,6 +86,7 @@ def _scene_from_json(key: str, d: dict[str, Any]) -> SceneSpec:
             tuple(f["yaw"]) if f["yaw"] is not None else None,
             tuple(f["regions"]),
             tuple(f["drawers"]),
+            tuple(f["closable"]),
             bool(f["door"]),
             bool(f["knob"]),
         )
@@ -195,6 +197,7 @@ def build_catalogue() -> dict[str, Any]:
                     "yaw": list(init.yaw_rotation) if init and init.yaw_rotation else None,
                     "regions": set(),
                     "operated": set(),
+                    "closed": set(),
                 },
             )
             spec["regions"].update(carried)
@@ -202,6 +205,9 @@ def build_catalogue() -> dict[str, Any]:
             for atom in [*atoms(p.goal), *p.init]:
                 if atom.predicate in ("Open", "Close") and atom.args[0].startswith(name + "_"):
                     spec["operated"].add(atom.args[0][len(name) + 1 :])
+            for atom in atoms(p.goal):
+                if atom.predicate == "Close" and atom.args[0].startswith(name + "_"):
+                    spec["closed"].add(atom.args[0][len(name) + 1 :])
         objects = {o.name: o.category for o in p.objects}
         kind = SCENE_KINDS[p.problem]
         for o in p.objects:
@@ -230,6 +236,7 @@ def build_catalogue() -> dict[str, Any]:
         fixtures = []
         for f in entry["fixtures"].values():
             drawers = sorted(r for r in f["regions"] if r in f["operated"])
+            closable = sorted(r for r in f["regions"] if r in f["closed"])
             fixtures.append(
                 {
                     "name": f["name"],
@@ -238,6 +245,7 @@ def build_catalogue() -> dict[str, Any]:
                     "yaw": f["yaw"],
                     "regions": sorted(f["regions"]),
                     "drawers": drawers,
+                    "closable": closable,
                     "door": f["category"] in doors,
                     "knob": f["category"] in knobs,
                 }

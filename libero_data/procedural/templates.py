@@ -174,7 +174,9 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
         f = _fixture(scene, drawers=True)
         if f is None:
             return None
-        level = pick([d for d in f.drawers if d in LEVEL])
+        # Closing is only asked where a shipped task of this layout closes that drawer.
+        options = f.drawers if name == "open_drawer" else f.closable
+        level = pick([d for d in options if d in LEVEL])
         if level is None:
             return None
         region = f"{f.name}_{level[0]}"

@@ -63,10 +63,16 @@ class OpenDrawer(Skill):
             approach = mat[:, 2]
             grip = centre + approach * 0.012
             pre = grip - approach * 0.09 + np.array([0, 0, 0.02])
+            # Turn the hand first, high above the table, then travel: turning on the way makes
+            # the arm drift sideways near the edge of its workspace.
+            yield from ctx.motion.move(ctx.scene.eef_pos(), mat, tol=0.02, max_steps=40)
             yield from ctx.motion.move(pre, mat, tol=0.01, max_steps=120)
-            off = float(np.linalg.norm(ctx.scene.eef_pos() - pre))
+            error = ctx.scene.eef_pos() - pre
+            along = float(abs(error @ bar))  # sliding along the bar still grips it
+            off = float(np.linalg.norm(error - (error @ bar) * bar))
             turn = float(np.linalg.norm(rotation_error(mat, ctx.scene.eef_mat())))
-            if off < 0.03 and turn < 0.3:
+            if off < 0.03 and along < 0.04 and turn < 0.3:
+                grip = grip + (error @ bar) * bar  # grip where the hand got to along the bar
                 break
         else:
             raise SkillFailed(f"could not reach the handle of {region}")

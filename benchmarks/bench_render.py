@@ -1,0 +1,121 @@
+"""Rendering cost: our environment against a bare MuJoCo render loop and LIBERO's own env.
+
+Three measurements on the same task, cameras (agentview + eye-in-hand) and image size, each
+the median of ``--reps`` repetitions of ``--frames`` frames, in one process, one at a time:
+
+- **bare**: ``mujoco.Renderer`` on the task's compiled model, both cameras per frame
+  (the floor: what rendering these two views costs without any toolkit around it);
+- **ours**: ``LiberoEnv.step(noop)`` with both cameras (physics + rendering + observation);
+  and ``LiberoEnv.render`` alone, per camera frame;
+- **LIBERO**: ``OffScreenRenderEnv.step(noop)`` with the same two cameras and size, the
+  baseline users have today.
+
+Prints a Markdown table and, with ``--results``, replaces this benchmark's section of
+``benchmarks/RESULTS.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np
+
+NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
+
+
+def _median_rate(fn, frames: int, reps: int) -> float:
+    """Median seconds per call of ``fn`` over ``reps`` runs of ``frames`` calls."""
+    fn()  # warm-up (first frame builds GL resources)
+    times = []
+    for _ in range(reps):
+        start = time.perf_counter()
+        for _ in range(frames):
+            fn()
+        times.append((time.perf_counter() - start) / frames)
+    return statistics.median(times)
+
+
+def measure(task_ref: str, size: int, frames: int, reps: int) -> dict[str, float]:
+    import mujoco
+
+    from libero_data.sim import EnvConfig, LiberoEnv
+    from libero_data.tasks import get_task
+
+    task = get_task(task_ref)
+    out: dict[str, float] = {}
+    with LiberoEnv(task, EnvConfig(image_size=size)) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        out["ours_step"] = _median_rate(lambda: env.step(NOOP), frames, reps)
+        out["ours_frame"] = _median_rate(lambda: env.render("agentview"), frames, reps)
+        out["ours_step_no_cameras"] = _median_rate(lambda: env.step(NOOP, render=False), frames, reps)
+        model, data = env.sim.model._model, env.sim.data._data
+        renderer = mujoco.Renderer(model, size, size)
+        cameras = ["agentview", "robot0_eye_in_hand"]
+
+        def bare() -> None:
+            for cam in cameras:
+                renderer.update_scene(data, camera=cam)
+                renderer.render()
+
+        out["bare_two_cameras"] = _median_rate(bare, frames, reps)
+        out["bare_frame"] = out["bare_two_cameras"] / 2
+        renderer.close()
+
+    from libero.libero.envs import OffScreenRenderEnv
+
+    libero_env = OffScreenRenderEnv(
+        bddl_file_name=str(task.bddl_path),
+        camera_heights=size,
+        camera_widths=size,
+        camera_names=["agentview", "robot0_eye_in_hand"],
+    )
+    try:
+        libero_env.seed(0)
+        libero_env.reset()
+        libero_env.set_init_state(task.init_states()[0])
+        out["libero_step"] = _median_rate(lambda: libero_env.step(NOOP), frames, reps)
+    finally:
+        libero_env.close()
+    return out
+
+
+def table(r: dict[str, float], task: str, size: int, frames: int, reps: int) -> str:
+    lines = [
+        f"Task `{task}`, two cameras at {size}×{size}, medians of {reps} × {frames} frames, one process.",
+        "",
+        "| measurement | ms | ratio | target |",
+        "|---|---:|---:|---|",
+        f"| bare MuJoCo, one camera frame | {r['bare_frame'] * 1e3:.1f} | 1.00 | |",
+        f"| ours, one camera frame (`LiberoEnv.render`) | {r['ours_frame'] * 1e3:.1f} | {r['ours_frame'] / r['bare_frame']:.2f}× bare | ≤ 1.1× |",
+        f"| LIBERO `OffScreenRenderEnv.step`, two cameras | {r['libero_step'] * 1e3:.1f} | 1.00 | |",
+        f"| ours `LiberoEnv.step`, two cameras | {r['ours_step'] * 1e3:.1f} | {r['libero_step'] / r['ours_step']:.2f}× LIBERO's steps/s | ≥ 3× |",
+        f"| ours `LiberoEnv.step`, no cameras (physics) | {r['ours_step_no_cameras'] * 1e3:.1f} | | |",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--task", default="libero_object/0")
+    parser.add_argument("--size", type=int, default=128)
+    parser.add_argument("--frames", type=int, default=40)
+    parser.add_argument("--reps", type=int, default=3)
+    parser.add_argument("--results", type=Path, help="RESULTS.md to update")
+    args = parser.parse_args()
+    r = measure(args.task, args.size, args.frames, args.reps)
+    text = table(r, args.task, args.size, args.frames, args.reps)
+    print(text)
+    if args.results:
+        from benchmarks.results import replace_section
+
+        replace_section(args.results, "Rendering", text)
+
+
+if __name__ == "__main__":
+    main()

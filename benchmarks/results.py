@@ -1,0 +1,41 @@
+"""Writing one benchmark's section of ``benchmarks/RESULTS.md`` (machine, versions, date)."""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import platform
+import re
+from pathlib import Path
+
+
+def machine() -> str:
+    cores = os.cpu_count()
+    try:
+        mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    except (ValueError, OSError):
+        mem = float("nan")
+    return f"{platform.processor() or platform.machine()}, {cores} cores, {mem:.0f} GiB, {platform.system()}"
+
+
+def stamp() -> str:
+    from libero_data.pipeline.generate import versions
+
+    vers = ", ".join(f"{k} {v}" for k, v in versions().items())
+    return f"_{dt.date.today().isoformat()} · {machine()} · {vers}_"
+
+
+def replace_section(path: Path, title: str, body: str) -> None:
+    """Replace (or append) ``## title`` in ``path`` with ``body`` and a stamp."""
+    text = (
+        path.read_text()
+        if path.is_file()
+        else "# Benchmark results\n\nWritten by the scripts in `benchmarks/`.\n"
+    )
+    block = f"## {title}\n\n{stamp()}\n\n{body.rstrip()}\n"
+    pattern = re.compile(rf"^## {re.escape(title)}\n.*?(?=^## |\Z)", re.S | re.M)
+    if pattern.search(text):
+        text = pattern.sub(lambda _m: block + "\n", text)
+    else:
+        text = text.rstrip() + "\n\n" + block
+    path.write_text(text.rstrip() + "\n")
