@@ -45,7 +45,7 @@ class FixtureSpec:
     regions: tuple[str, ...]  # regions the fixture carries (``top_region``, ``cook_region``, ...)
     drawers: tuple[str, ...]  # of those, drawers this layout's shipped tasks open or close
     closable: tuple[str, ...]  # of those, the ones a shipped task of this layout closes
-    door: bool  # the fixture itself opens (a microwave)
+    door: tuple[str, ...]  # the fixture itself opens (a microwave): what this layout's tasks do with it
     knob: bool  # it turns on and off (a stove)
 
 
@@ -87,7 +87,7 @@ def _scene_from_json(key: str, d: dict[str, Any]) -> SceneSpec:
             tuple(f["regions"]),
             tuple(f["drawers"]),
             tuple(f["closable"]),
-            bool(f["door"]),
+            tuple(f["door"]),
             bool(f["knob"]),
         )
         for f in d["fixtures"]
@@ -198,6 +198,7 @@ def build_catalogue() -> dict[str, Any]:
                     "regions": set(),
                     "operated": set(),
                     "closed": set(),
+                    "door_ops": set(),
                 },
             )
             spec["regions"].update(carried)
@@ -208,6 +209,8 @@ def build_catalogue() -> dict[str, Any]:
             for atom in atoms(p.goal):
                 if atom.predicate == "Close" and atom.args[0].startswith(name + "_"):
                     spec["closed"].add(atom.args[0][len(name) + 1 :])
+                if atom.predicate in ("Open", "Close") and atom.args[0] == name:
+                    spec["door_ops"].add(atom.predicate)
         objects = {o.name: o.category for o in p.objects}
         kind = SCENE_KINDS[p.problem]
         for o in p.objects:
@@ -246,7 +249,8 @@ def build_catalogue() -> dict[str, Any]:
                     "regions": sorted(f["regions"]),
                     "drawers": drawers,
                     "closable": closable,
-                    "door": f["category"] in doors,
+                    # what this layout's shipped tasks do with the door: "Open", "Close"
+                    "door": sorted(f["door_ops"]) if f["category"] in doors else [],
                     "knob": f["category"] in knobs,
                 }
             )
