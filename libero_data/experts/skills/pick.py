@@ -54,7 +54,11 @@ class Pick(Skill):
                 raise SkillFailed(f"no top-down grasp fits {obj}" if not missed else f"missed {obj}")
             if attempt == 0:
                 # Any grasp close to the best one is as good: pick among them for variety.
-                good = [g for g in grasps if g.score > grasps[0].score - 1.0][:6] or grasps[:3]
+                # (Only as deep as the best: a shallow rim grasp slips.)
+                best = grasps[0]
+                good = [
+                    g for g in grasps if g.score > best.score - 1.0 and g.pos[2] <= best.pos[2] + 0.004
+                ][:6] or grasps[:1]
                 grasp = good[int(ctx.rng.integers(len(good)))]
             else:
                 grasp = grasps[0]
@@ -105,6 +109,9 @@ def _for_side_insertion(ctx: Context, obj: str, grasps: list) -> list:
     centre (a mug's handle) with the fingers closing across that offset come first.
     """
     com = ctx.scene.com(obj)[:2]
+    if grasps:  # as deep as the best grasp only: a shallow rim grasp slips
+        deepest = min(g.pos[2] for g in grasps)
+        grasps = [g for g in grasps if g.pos[2] <= deepest + 0.004]
 
     def score(g) -> float:
         offset = g.pos[:2] - com

@@ -140,7 +140,10 @@ def _enclosed(ctx: Context, site: Site) -> bool:
     inside = np.all(
         (pts[:, :2] > lo[:2] + 0.1 * (hi - lo)[:2]) & (pts[:, :2] < hi[:2] - 0.1 * (hi - lo)[:2]), axis=1
     )
-    above = pts[inside & (pts[:, 2] > hi[2] - 0.005) & (pts[:, 2] < hi[2] + 0.12)]
+    # A cover lies above the region, clear of its floor (a thin region such as a cabinet's
+    # top side is not covered by the surface it marks).
+    floor = max(hi[2] - 0.005, lo[2] + 0.03)
+    above = pts[inside & (pts[:, 2] > floor) & (pts[:, 2] < hi[2] + 0.12)]
     if len(above) == 0:
         return False
     cells = set(
