@@ -71,6 +71,17 @@ def shipped_signatures() -> set[tuple]:
     }
 
 
+def shipped_instructions(catalogue: Catalogue) -> set[tuple[str, str]]:
+    """(scene layout, instruction) of every shipped task."""
+    from libero_data.tasks import get_task
+
+    return {
+        (scene_id, get_task(ref).language)
+        for scene_id, spec in catalogue.scenes.items()
+        for ref in spec.sources
+    }
+
+
 def _place(
     rng: np.random.Generator, scene: SceneSpec, radii: list[float], tries: int = 200
 ) -> list[tuple[float, float]] | None:
@@ -172,6 +183,7 @@ def sample_tasks(
     if not pairs:
         raise SamplingError("no chosen scene can host any chosen behaviour template")
     known = set(shipped_signatures()) if known is None else known
+    instructions = shipped_instructions(catalogue)
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0x11BE70]))
     # Templates first (uniformly), then a scene that hosts it: keeps the behaviour mix even.
     by_template: dict[str, list[str]] = {}
@@ -179,11 +191,19 @@ def sample_tasks(
         by_template.setdefault(t, []).append(s)
     names = sorted(by_template)
     for _ in range(n):
-        t = names[int(rng.integers(len(names)))]
-        s = by_template[t][int(rng.integers(len(by_template[t])))]
-        scene = catalogue.scenes[s]
-        draft = instantiate(t, scene, catalogue, rng)
-        assert draft is not None
+        for _redraw in range(20):
+            t = names[int(rng.integers(len(names)))]
+            s = by_template[t][int(rng.integers(len(by_template[t])))]
+            scene = catalogue.scenes[s]
+            draft = instantiate(t, scene, catalogue, rng)
+            assert draft is not None
+            # One instruction per scene layout: another draw where this one is taken (by a
+            # shipped task or an earlier draw), so no two tasks differ only in distractors.
+            if (s, draft.language) not in instructions:
+                break
+        else:
+            yield None, s, t, "duplicate of a shipped or already sampled task"
+            continue
         seen = catalogue.seen_in.get(scene.kind, {})
         pool = [
             c
@@ -219,6 +239,7 @@ def sample_tasks(
             yield None, s, t, why
             continue
         known.add(sig)
+        instructions.add((s, draft.language))
         yield SampledTask(task_name(scene, draft.language), s, t, problem), s, t, ""
 
 

@@ -131,7 +131,9 @@ def make_suite(
 ) -> list[Verdict]:
     """Sample, check and write the suite into ``out``; resumes an interrupted run."""
     from libero_data.bddl.writer import _formula, write
+    from libero_data.experts.report import expert_fingerprint
 
+    expert_code = expert_fingerprint()  # of the code this process runs (read before any check)
     out = Path(out).resolve()
     work = out / WORK / "procedural"
     work.mkdir(parents=True, exist_ok=True)
@@ -160,6 +162,9 @@ def make_suite(
                 max_distractors=settings.max_distractors,
             )
         )
+    names = [c[0].name for c in candidates if c[0] is not None]
+    if len(set(names)) != len(names):  # each task is a file named after it
+        raise ValueError("two sampled tasks share a name; this is a bug in the sampler")
     staged = work / "bddl"
     staged.mkdir(exist_ok=True)
     verdicts: dict[int, Verdict] = {}
@@ -213,7 +218,7 @@ def make_suite(
                 record(index[v.name], v, st)
 
     ordered = [verdicts[i] for i in range(len(candidates))]
-    _write_suite(out, settings, candidates, ordered, states)
+    _write_suite(out, settings, candidates, ordered, states, expert_code)
     return ordered
 
 
@@ -223,6 +228,7 @@ def _write_suite(
     candidates: list[tuple[SampledTask | None, str, str, str]],
     verdicts: list[Verdict],
     states: dict[int, np.ndarray],
+    expert_code: str = "",
 ) -> None:
     from libero_data.bddl.writer import write
 
@@ -249,7 +255,12 @@ def _write_suite(
 
     manifest = {
         "name": out.name,
-        "generator": {"settings": settings.to_json(), "versions": versions(), "candidates": len(verdicts)},
+        "generator": {
+            "settings": settings.to_json(),
+            "versions": versions(),
+            "candidates": len(verdicts),
+            "expert_code": expert_code,
+        },
         "tasks": entries,
     }
     tmp = out / "suite.json.tmp"
@@ -257,10 +268,10 @@ def _write_suite(
     tmp.replace(out / "suite.json")
     report = {"settings": settings.to_json(), "candidates": [asdict(v) for v in verdicts]}
     (out / "procedural_report.json").write_text(json.dumps(report, indent=1))
-    (out / "procedural_report.md").write_text(report_markdown(verdicts, settings))
+    (out / "procedural_report.md").write_text(report_markdown(verdicts, settings, expert_code))
 
 
-def report_markdown(verdicts: list[Verdict], settings: ProceduralSettings) -> str:
+def report_markdown(verdicts: list[Verdict], settings: ProceduralSettings, expert_code: str = "") -> str:
     kept = [v for v in verdicts if v.kept]
     scenes = sorted({v.scene for v in kept})
     templates = sorted({v.template for v in kept})
@@ -272,7 +283,10 @@ def report_markdown(verdicts: list[Verdict], settings: ProceduralSettings) -> st
         "",
         f"Seed {settings.seed}; {len(verdicts)} {what}, **{len(kept)} kept** "
         f"({len(kept) / max(len(verdicts), 1):.0%}) across {len(scenes)} scenes and {len(templates)} behaviour templates. "
-        f"A task is kept when the expert solves at least half of {settings.check_inits} initial states drawn by LIBERO's sampler.",
+        f"A task is kept when the expert solves at least half of {settings.check_inits} initial states drawn by LIBERO's sampler"
+        + (
+            f" (expert code {expert_code}, as `libero-data expert-report` prints it)." if expert_code else "."
+        ),
         "",
         "| # | task | scene (or source task) | template | expert | verdict |",
         "|---:|---|---|---|---:|---|",

@@ -130,3 +130,14 @@ def test_scene_and_template_choice() -> None:
         list(sample_tasks(1, seed=0, scenes=["moon_base"]))
     with pytest.raises(SamplingError, match="no chosen scene can host"):
         list(sample_tasks(1, seed=0, scenes=["living_room"], templates=["turn_on_stove"]))
+
+
+def test_one_instruction_per_scene_and_unique_names(drawn: list) -> None:
+    from libero_data.procedural.catalogue import load_catalogue
+    from libero_data.procedural.sampler import shipped_instructions
+
+    kept = [t for t, *_ in drawn if t is not None]
+    pairs = [(t.scene, t.language) for t in kept]
+    assert len(set(pairs)) == len(pairs)
+    assert len({t.name for t in kept}) == len(kept)
+    assert not set(pairs) & shipped_instructions(load_catalogue())

@@ -56,9 +56,9 @@ class Pick(Skill):
                 # Any grasp close to the best one is as good: pick among them for variety.
                 # (Only as deep as the best: a shallow rim grasp slips.)
                 best = grasps[0]
-                good = [
-                    g for g in grasps if g.score > best.score - 1.0 and g.pos[2] <= best.pos[2] + 0.004
-                ][:6] or grasps[:1]
+                good = [g for g in grasps if g.score > best.score - 1.0 and g.pos[2] <= best.pos[2] + 0.004][
+                    :6
+                ] or grasps[:1]
                 grasp = good[int(ctx.rng.integers(len(good)))]
             else:
                 grasp = grasps[0]
