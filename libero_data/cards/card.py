@@ -53,6 +53,12 @@ def render_card(
             f"| {t.index} | `{t.name}` | {_cell(t.language)} | `{_cell(t.goal)}` | {t.episodes} | {rate} |"
         )
     settings_rows = "\n".join(f"| {_cell(k)} | {_cell(str(v))} |" for k, v in settings.items())
+    # The split's size in the YAML header: `datasets.load_dataset(folder)` keys its cache on
+    # this header, so a dataset regenerated at the same path with other frames is read
+    # afresh instead of from the stale cache.
+    dataset_info = (
+        "" if frames is None else f"dataset_info:\n  splits:\n  - name: train\n    num_examples: {frames}\n"
+    )
     return Template(TEMPLATE.read_text()).substitute(
         title=title,
         summary=summary,
@@ -62,6 +68,7 @@ def render_card(
         command=command,
         episodes=sum(t.episodes for t in tasks),
         frames="—" if frames is None else frames,
+        dataset_info=dataset_info,
         fps=fps,
         tasks=len(tasks),
         image_size=image_size,

@@ -53,6 +53,8 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
     assert header["license"] == "mit"
     assert header["task_categories"] == ["robotics"]
     assert header["configs"][0]["data_files"] == "data/*/*.parquet"
+    info = json.loads((tiny_dataset / "meta" / "info.json").read_text())
+    assert header["dataset_info"]["splits"] == [{"name": "train", "num_examples": info["total_frames"]}]
     assert "LeRobot" in header["tags"]
     for needle in (
         "open the middle drawer of the cabinet",
@@ -135,3 +137,22 @@ def test_bad_input_fails_cleanly(tmp_path: Path) -> None:
         timeout=120,
     )
     assert result.returncode == 2 and "not empty" in result.stderr
+
+
+def test_load_dataset_reads_a_dataset_regenerated_at_the_same_path(
+    tiny_dataset: Path, procedural_suite: Path, tmp_path: Path
+) -> None:
+    # `datasets` caches a folder's frames under a key taken from the card's YAML header; the
+    # header carries the frame count so that a new dataset in the same place is not read
+    # from the old one's cache.
+    import shutil
+
+    import datasets
+
+    here = tmp_path / "d"
+    for source in (tiny_dataset, procedural_suite, tiny_dataset):
+        if here.exists():
+            shutil.rmtree(here)
+        shutil.copytree(source, here, ignore=shutil.ignore_patterns(".libero-data"))
+        frames = datasets.load_dataset(str(here), split="train")
+        assert len(frames) == json.loads((here / "meta" / "info.json").read_text())["total_frames"]
