@@ -20,7 +20,7 @@ import numpy as np
 from libero_data.bddl.model import Atom, Entity, Problem, Region, atoms
 from libero_data.procedural.catalogue import Catalogue, SceneSpec, load_catalogue
 from libero_data.procedural.sampler import GAP, HALF_WIDTH, SampledTask, SamplingError
-from libero_data.procedural.templates import display
+from libero_data.procedural.templates import HARD_TO_GRASP, display
 
 KINDS = ("layout", "distractors", "swap", "language")
 FIXTURE_CLEARANCE = 0.2  # metres from a fixture's centre to any new object's footprint
@@ -215,7 +215,7 @@ def make_variant(
     old = category[moved]
     group = next((g for g in KIND_GROUPS if old in g), None)
     present = set(category.values())
-    options = [c for c in (group or ()) if c != old and c not in present]
+    options = [c for c in (group or ()) if c != old and c not in present and c not in HARD_TO_GRASP]
     words = display(old)
     if not re.search(rf"\b{re.escape(words)}\b", language):
         words = "the " + words.split()[-1]  # "put the bowl ..." for the black bowl
