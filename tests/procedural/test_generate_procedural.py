@@ -70,3 +70,23 @@ def test_generated_bddl_loads_in_liberos_own_environment(procedural: Path) -> No
         env.step([0.0] * 7)
     finally:
         env.close()
+
+
+def test_libero_bench_runs_on_a_generated_suite(procedural: Path, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    run = tmp_path / "run"
+    args = ["--algo", "seql", "--policy", "resnet_t", "--preset", "smoke", "--out", str(run)]
+    quick = ["--set", "epochs=1", "--set", "eval_rollouts=1", "--set", "eval_max_steps=5"]
+    result = subprocess.run(
+        [sys.executable, "-m", "libero_bench.cli", "run", "--data", str(procedural), *args, *quick],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    results = json.loads((run / "results.json").read_text())
+    assert results["complete"]
+    kept = json.loads((procedural / "suite.json").read_text())["tasks"]
+    assert len(results["curve"]) == len(kept)
