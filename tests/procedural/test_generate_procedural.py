@@ -90,3 +90,20 @@ def test_libero_bench_runs_on_a_generated_suite(procedural: Path, tmp_path: Path
     assert results["complete"]
     kept = json.loads((procedural / "suite.json").read_text())["tasks"]
     assert len(results["curve"]) == len(kept)
+
+
+def test_variants_from_the_command_line(tmp_path: Path) -> None:
+    out = tmp_path / "v"
+    args = ["--variants-of", "libero_goal", "--tasks", "7", "--kinds", "language", "--seed", "0"]
+    result = run_cli("generate", *args, "--tasks-only", "--out", str(out))
+    assert result.returncode == 0, result.stderr[-3000:]
+    manifest = json.loads((out / "suite.json").read_text())
+    assert manifest["generator"]["settings"]["variants_of"] == "libero_goal"
+    (task,) = manifest["tasks"]  # turn on the stove, said another way
+    assert task["language"] == "switch on the stove" and task["template"] == "variant:language"
+    listing = run_cli("tasks", "--suite", str(out), "--json")
+    assert json.loads(listing.stdout.splitlines()[0])["language"] == "switch on the stove"
+    bad = run_cli(
+        "generate", "--variants-of", "libero_goal", "--kinds", "upside_down", "--out", str(tmp_path / "x")
+    )
+    assert bad.returncode == 2 and "unknown variant kind" in bad.stderr and "Traceback" not in bad.stderr
