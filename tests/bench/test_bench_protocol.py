@@ -140,3 +140,22 @@ def test_a_run_folder_refuses_other_settings(tiny_dataset: Path, tmp_path: Path,
     _trainer(tiny_dataset, out, "seql").run()
     with pytest.raises(ValueError, match="holds a run with a different 'algo'"):
         _trainer(tiny_dataset, out, "ewc").prepare()
+
+
+def test_a_run_starts_from_another_runs_weights(tiny_dataset: Path, tmp_path: Path, scripted: Any) -> None:
+    # The paper's pretraining study: MTL first, then a lifelong run from its weights.
+    _trainer(tiny_dataset, tmp_path / "mtl", "mtl").run()
+    weights = tmp_path / "mtl" / "checkpoints" / "task_000.pt"
+    start = torch.load(weights, weights_only=False)["policy"]
+    digest = float(sum(v.double().sum() for v in start.values() if v.is_floating_point()))
+    scripted.calls = []
+    request = RunRequest(
+        data=tiny_dataset, algo="seql", policy="resnet_t", preset=PRESET, init_checkpoint=weights
+    )
+    Trainer(plan_run(request), tmp_path / "seql", RunOptions(workers=0)).run()
+    first = scripted.calls[0]  # epoch 0 of the first task: before any training
+    assert (first["phase"], first["epoch"]) == ("learning", 0)
+    assert first["digest"] == pytest.approx(digest, rel=1e-12)
+    other = RunRequest(data=tiny_dataset, algo="seql", policy="vit_t", preset=PRESET, init_checkpoint=weights)
+    with pytest.raises(ValueError, match="does not fit the vit_t policy"):
+        Trainer(plan_run(other), tmp_path / "vit", RunOptions(workers=0)).run()
