@@ -16,6 +16,9 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
+# The same console and one-sentence errors as libero-data's command line.
+from libero_data.cli import _console, fail
+
 if TYPE_CHECKING:
     from rich.console import Console
 
@@ -29,17 +32,6 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 F = TypeVar("F", bound=Callable[..., Any])
-
-
-def _console(stderr: bool = False) -> Console:
-    from rich.console import Console
-
-    return Console(stderr=stderr, width=None if sys.stdout.isatty() else 200, highlight=False)
-
-
-def fail(message: str, code: int = 2) -> typer.Exit:
-    _console(stderr=True).print(f"error: {message}", markup=False, soft_wrap=True)
-    return typer.Exit(code)
 
 
 def user_errors[F: Callable[..., Any]](fn: F) -> F:

@@ -140,11 +140,15 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
     def inst(category: str) -> str:
         return f"{category}_1"
 
+    def mover(max_radius: float, max_height: float) -> str | None:
+        """One graspable object that fits the destination."""
+        xs = pick(_movers(catalogue, scene, max_radius=max_radius, max_height=max_height))
+        return xs[0] if xs else None
+
     if name == "put_on_plate":
-        xs = pick(_movers(catalogue, scene, max_radius=0.06, max_height=0.11))
-        if xs is None:
+        x = mover(0.06, 0.11)
+        if x is None:
             return None
-        x = xs[0]
         return Draft(
             name,
             t.pattern.format(x=display(x)),
@@ -192,10 +196,9 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
                 [Atom("Open", (region,))],
                 [f.name],
             )
-        xs = pick(_movers(catalogue, scene, max_radius=0.05, max_height=0.06))
-        if xs is None:
+        x = mover(0.05, 0.06)
+        if x is None:
             return None
-        x = xs[0]
         return Draft(
             name,
             t.pattern.format(x=display(x), **words),
@@ -214,10 +217,9 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
             return Draft(
                 name, t.pattern, [], [Atom("Turnoff", (f.name,))], [Atom("Turnon", (f.name,))], [f.name]
             )
-        xs = pick(_movers(catalogue, scene, max_radius=0.08, max_height=0.16))
-        if xs is None:
+        x = mover(0.08, 0.16)
+        if x is None:
             return None
-        x = xs[0]
         goal = [Atom("On", (inst(x), f"{f.name}_cook_region"))]
         if name == "turn_on_stove_and_put":
             goal = [Atom("Turnon", (f.name,)), *goal]
@@ -226,10 +228,9 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
         f = _fixture(scene, drawers=True)
         if f is None or "top_side" not in f.regions:
             return None
-        xs = pick(_movers(catalogue, scene, max_radius=0.06, max_height=0.11))
-        if xs is None:
+        x = mover(0.06, 0.11)
+        if x is None:
             return None
-        x = xs[0]
         return Draft(
             name,
             t.pattern.format(x=display(x)),
@@ -250,10 +251,9 @@ def instantiate(name: str, scene: SceneSpec, catalogue: Catalogue, rng: np.rando
         if f is None:
             return None
         side = pick([r for r in f.regions if r in CADDY_SIDE])
-        xs = pick(_movers(catalogue, scene, max_radius=0.045, max_height=0.09))  # compartments are shallow
-        if side is None or xs is None:
+        x = mover(0.045, 0.09)  # compartments are shallow
+        if side is None or x is None:
             return None
-        x = xs[0]
         return Draft(
             name,
             t.pattern.format(x=display(x), side=CADDY_SIDE[side[0]]),
