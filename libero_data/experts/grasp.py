@@ -54,6 +54,7 @@ def plan_top_down(
     exclude: tuple[str, ...] | None = None,
     exclude_bodies: tuple[int, ...] = (),
     pad_tolerance: float = 0.004,
+    limit: int | None = None,
 ) -> list[Grasp]:
     """Feasible top-down grasps of ``name``, best first (empty when none fits).
 
@@ -61,7 +62,8 @@ def plan_top_down(
     replaces the object's own points (a part of a fixture, such as a knob); then
     ``exclude`` names what else is not an obstacle (default: ``name``). ``pad_tolerance``
     is how far (m) the object may stand out beyond the pads' contact higher up the fingers
-    (flared walls): small is safe, larger admits thin flared rims.
+    (flared walls): small is safe, larger admits thin flared rims. ``limit`` stops the
+    search after that many feasible grasps (``limit=1`` answers "is there any?" cheaply).
     """
     stats = {} if stats is None else stats
     depths = (depth,) if isinstance(depth, float) else tuple(depth)
@@ -92,24 +94,30 @@ def plan_top_down(
         yaw = np.pi * k / n_yaw
         u = np.array([np.cos(yaw), np.sin(yaw)])
         v = np.array([-u[1], u[0]])
-        du_o, dv_o = obj[:, :2] @ u, obj[:, :2] @ v
-        du_e, dv_e = everything[:, :2] @ u, everything[:, :2] @ v
+        # Points sorted across the closing line: each candidate then looks only at the
+        # slice of points near its line (a binary search), not at every point.
+        o_u, o_v, o_z = _sorted_by_v(obj, u, v)
+        e_u, e_v, e_z = _sorted_by_v(everything, u, v)
         for c in centres:
             cu, cv = float(c @ u), float(c @ v)
+            du_o, dv_o, z_o = _near(o_u, o_v, o_z, cv, FINGER_HALF_WIDTH)
             in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
             if in_line.sum() < 3:
                 reject("empty")
                 continue
-            top = float(obj[in_line, 2].max())
+            # From here on only the points on this closing line matter.
+            du_o, dv_o, z_o = du_o[in_line], dv_o[in_line], z_o[in_line]
+            top = float(z_o.max())
             # Only what is near this closing line can touch the hand.
+            du_e, dv_e, z_e = _near(e_u, e_v, e_z, cv, PALM_HALF[1] + 0.04)
             local = (np.abs(du_e - cu) < PALM_HALF[0] + 0.06) & (np.abs(dv_e - cv) < PALM_HALF[1] + 0.04)
-            du_l, dv_l, z_l = du_e[local], dv_e[local], everything[local, 2]
+            du_l, dv_l, z_l = du_e[local], dv_e[local], z_e[local]
             for grasp_depth_goal in depths:
                 z = max(top - grasp_depth_goal, floor + TIP_BELOW_SITE + 0.001)
                 if z > top - 0.003:
                     reject("shallow")
                     continue
-                span = in_line & (obj[:, 2] > z - TIP_BELOW_SITE) & (obj[:, 2] < z + FINGER_LENGTH)
+                span = (z_o > z - TIP_BELOW_SITE) & (z_o < z + FINGER_LENGTH)
                 if span.sum() < 3:
                     reject("span")
                     continue
@@ -120,7 +128,7 @@ def plan_top_down(
                     continue
                 # The pads must make the first contact on both sides: the outermost points
                 # between the fingers lie in front of the pads, not at a finger's edge or top.
-                pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(obj[:, 2] - z) < PAD_HALF + 0.002)
+                pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(z_o - z) < PAD_HALF + 0.002)
                 if (
                     pads.sum() < 2
                     or float(du_o[pads].min()) - lo_u > pad_tolerance
@@ -131,7 +139,7 @@ def plan_top_down(
                 # Antipodal contacts: across each pad, the contact surface must face the pad
                 # (not run along the closing direction, as a chord across a bowl's edge does),
                 # or the squeeze slides off. Compare the surface's position at both pad edges.
-                band = pads & (np.abs(obj[:, 2] - z) < PAD_HALF)
+                band = pads & (np.abs(z_o - z) < PAD_HALF)
                 sides_ok = True
                 for sign in (1.0, -1.0):
                     left = band & (dv_o - cv > -PAD_HALF) & (dv_o - cv < -0.002)
@@ -148,7 +156,7 @@ def plan_top_down(
                 # Squeezing a wide body whose sides flare out above the pads pushes it down
                 # out of the fingers (bowls held from outside): not allowed beyond 1.5 mm.
                 if width > 0.02:
-                    above = span & (obj[:, 2] > z + PAD_HALF)
+                    above = span & (z_o > z + PAD_HALF)
                     if above.any() and (
                         float(du_o[pads].min()) - float(du_o[above].min()) > 0.0015
                         or float(du_o[above].max()) - float(du_o[pads].max()) > 0.0015
@@ -210,8 +218,26 @@ def plan_top_down(
                         score=score,
                     )
                 )
+                if limit is not None and len(candidates) >= limit:
+                    return sorted(candidates, key=lambda g: -g.score)
     candidates.sort(key=lambda g: -g.score)
     return candidates
+
+
+def _sorted_by_v(points: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Coordinates along ``u``, across (``v``) and heights of ``points``, sorted by ``v``."""
+    du, dv = points[:, :2] @ u, points[:, :2] @ v
+    order = np.argsort(dv, kind="stable")
+    return du[order], dv[order], points[order, 2]
+
+
+def _near(du: np.ndarray, dv: np.ndarray, z: np.ndarray, cv: float, half: float) -> tuple[np.ndarray, ...]:
+    """The slice of points (sorted by ``dv``) with ``|dv - cv| < half``, and a little more.
+
+    The slice is a superset (1 mm wider); callers apply the exact test to it.
+    """
+    a, b = np.searchsorted(dv, (cv - half - 1e-3, cv + half + 1e-3))
+    return du[a:b], dv[a:b], z[a:b]
 
 
 def _subsample(points: np.ndarray, n: int) -> np.ndarray:

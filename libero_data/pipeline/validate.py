@@ -291,13 +291,14 @@ def _resimulate(
             env.reset(seed=int(row["reset_seed"]), render=False)
             env.set_state(states[0])
             diverged = None
+            reached = env.success()
             for t, action in enumerate(actions):
                 if t > 0 and diverged is None and not np.array_equal(env.get_state(), states[t]):
                     diverged = t
-                env.step(action, render=False)
+                reached = env.advance(action)
             done += 1
             where = f"episode {ep['episode_index']}"
-            if not env.success():
+            if not reached:
                 issues.append(Issue(where, "does not reach its goal when re-simulated from its first state"))
             else:
                 ok += 1

@@ -77,7 +77,9 @@ class LiberoEnv:
         self.problem: Problem = self.task.problem if self.task is not None else parse_file(self.bddl_path)
         self.language = self.task.language if self.task is not None else self.problem.language
         self.backend = select_backend(self.config.renderer) if self.config.cameras else None
+        self._stepping = False
         self._env = self._build()
+        self._trim_step()
         model_cameras = set(self._env.sim.model.camera_names)
         for name in unknown:
             if name not in model_cameras:
@@ -173,10 +175,11 @@ class LiberoEnv:
                 raise RuntimeError(f"{self.bddl_path}: LIBERO could not place the objects in 100 attempts")
         finally:
             np.random.set_state(saved)
+        self._trim_step()  # robosuite builds new controllers on every reset
         self.set_state(self.get_state() if init_state is None else init_state)
         if settle:
             for _ in range(settle):
-                self._env.step(NOOP_ACTION)
+                self._physics_step(NOOP_ACTION)
             self.set_state(self.get_state())
         return self.observe(render=render)
 
@@ -217,11 +220,52 @@ class LiberoEnv:
 
     def step(self, action: np.ndarray, *, render: bool = True) -> tuple[dict[str, Any], bool]:
         """Apply one 7-D action (OSC delta pose in [-1, 1] + gripper); return (obs, success)."""
+        ok = self.advance(action)
+        return self.observe(render=render), ok
+
+    def advance(self, action: np.ndarray) -> bool:
+        """Apply one action and return whether the goal holds, building no observation.
+
+        The same physics as :meth:`step` (the same states, bit for bit), for searching and
+        re-simulating, where observations would be thrown away.
+        """
         action = np.asarray(action, dtype=np.float64).reshape(-1)
         if action.shape[0] != ACTION_DIM or not np.all(np.isfinite(action)):
             raise ValueError(f"action must be {ACTION_DIM} finite numbers, got {action!r}")
-        self._env.step(action)
-        return self.observe(render=render), self.success()
+        self._physics_step(action)
+        return self.success()
+
+    def _physics_step(self, action: np.ndarray) -> None:
+        from robosuite.environments.base import MujocoEnv
+
+        # robosuite's own step, without LIBERO's wrapper around it (which evaluates the goal
+        # a second time for its ``done`` flag; the reward is switched off by _trim_step).
+        self._stepping = True
+        try:
+            MujocoEnv.step(self._env, action)
+        finally:
+            self._stepping = False
+
+    def _trim_step(self) -> None:
+        """Remove work from robosuite's control step that never changes its result.
+
+        - robosuite runs ``mj_forward`` before each of the 25 physics substeps of a control
+          step, and the arm controller runs it again on the same state when it reads the
+          arm's pose: the second one is skipped while :meth:`_physics_step` runs.
+        - LIBERO's reward evaluates the goal's predicates on every control step; nothing
+          here reads that reward (success is evaluated once, by :meth:`success`).
+
+        Both are per instance (robosuite and LIBERO themselves are left untouched), and the
+        states a step produces are bit for bit the same (tested).
+        """
+        env = self._env
+        env.reward = _zero_reward
+        for robot in env.robots:
+            controller = robot.controller
+            if getattr(controller, "_libero_data_trimmed", False):
+                continue
+            controller.update = _update_without_forward(self, controller)
+            controller._libero_data_trimmed = True
 
     # observations -----------------------------------------------------------------------
     def render(self, camera: str) -> np.ndarray:
@@ -294,6 +338,31 @@ class LiberoEnv:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _zero_reward(action: Any = None) -> float:
+    return 0.0
+
+
+def _update_without_forward(env: LiberoEnv, controller: Any) -> Any:
+    original = controller.update  # the bound method robosuite (or its compat layer) installed
+    sim = controller.sim
+
+    def update(force: bool = False) -> Any:
+        if not env._stepping:
+            return original(force)
+        # Inside robosuite's substep loop the state was just forwarded and nothing moved since.
+        sim.forward = _no_forward
+        try:
+            return original(force)
+        finally:
+            del sim.forward  # back to MjSim.forward
+
+    return update
+
+
+def _no_forward() -> None:
+    return None
 
 
 def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:

@@ -97,3 +97,36 @@ def test_env_from_a_bddl_file_without_init_states(tmp_path) -> None:
         c = env.reset(seed=6, render=False)["sim_state"]
     np.testing.assert_array_equal(a, b)
     assert not np.array_equal(a, c)
+
+
+def test_trimmed_step_gives_the_same_states_as_liberos_own_step() -> None:
+    # LiberoEnv skips a redundant mj_forward per substep and LIBERO's reward; the states
+    # must stay bit for bit those of LIBERO's own step, and other envs must be untouched.
+    from libero_data.sim.env import LiberoEnv as Env
+
+    class Untrimmed(Env):
+        def _trim_step(self) -> None:
+            pass
+
+        def _physics_step(self, action: np.ndarray) -> None:
+            self._env.step(action)
+
+    task = get_task("libero_spatial/0")
+    rng = np.random.default_rng(3)
+    actions = np.concatenate([rng.uniform(-0.6, 0.6, (40, 6)), np.repeat([[-1.0], [1.0]], 20, 0)], 1)
+    runs = []
+    for cls in (Env, Untrimmed):
+        with cls(task, EnvConfig(cameras=())) as env:
+            env.reset(task.init_states()[0], seed=5, settle=5, render=False)
+            states = [env.get_state()]
+            for a in actions:
+                ok = env.advance(a)
+                states.append(env.get_state())
+            runs.append((np.array(states), ok))
+            if cls is Untrimmed:
+                assert "update" not in vars(env.raw.robots[0].controller)
+                assert env.raw.reward() in (0.0, 1.0)  # LIBERO's own reward still there
+            else:
+                assert env.raw.reward() == 0.0
+    assert np.array_equal(runs[0][0], runs[1][0])
+    assert runs[0][1] == runs[1][1]

@@ -83,6 +83,13 @@ def carry_to(
             break
         yield from ctx.motion.hold(1, mat)
     speed = 0.12 + ctx.jitter(0.03)
+    # Line up over the spot before going down: a narrow slot leaves a few mm to the walls.
+    for _ in range(20):
+        error_xy = np.asarray(body_xy[:2]) - scene.pos(ctx.held)[:2]
+        if np.linalg.norm(error_xy) < 0.003:
+            break
+        goal = scene.eef_pos() + np.array([error_xy[0], error_xy[1], 0.0])
+        yield from ctx.motion.move(goal, mat, speed=speed, tol=0.002, max_steps=2)
     for _ in range(80):
         body = scene.pos(ctx.held)
         bottom = float(scene.points(ctx.held)[:, 2].min())

@@ -63,21 +63,43 @@ def _box(site: Site) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _fitting_orientation(ctx: Context, site: Site) -> np.ndarray:
-    """Wrist orientation whose object outline fits the region's rectangle best."""
+    """Wrist orientation whose object outline fits the region's rectangle best.
+
+    Besides the wrist's regular steps, the turns that square the object's outline with the
+    box are tried (a book into a narrow caddy slot fits only square to it). An outline that
+    overflows the box costs most; one with less than 1 cm to spare on a side comes next
+    (the box is LIBERO's region, the walls stand at its edge); turning far costs least.
+    """
     lo, hi = _box(site)
     room = (hi - lo)[:2] / 2
     base = ctx.scene.eef_mat()
     best, best_cost = base, np.inf
-    for yaw in wrist_options(ctx):
+    yaws = list(wrist_options(ctx))
+    square = _outline_angle(footprint(ctx, base))
+    yaws += [(-square + k * np.pi / 2 + np.pi) % (2 * np.pi) - np.pi for k in range(4)]
+    for yaw in yaws:
         mat = best_turn(ctx, base, [yaw])
         outline = footprint(ctx, mat)
-        extent = np.maximum(np.abs(outline.max(0)), np.abs(outline.min(0)))
+        extent = (outline.max(0) - outline.min(0)) / 2  # the drop spot centres the outline
         overflow = float(np.clip(extent - room, 0, None).sum())
+        tight = float(np.clip(0.01 - (room - extent), 0, 0.01).max())
         turn = abs(yaw)
-        cost = overflow * 100 + turn * 0.01
+        cost = overflow * 100 + tight * 10 + turn * 0.01
         if cost < best_cost:
             best, best_cost = mat, cost
     return best
+
+
+def _outline_angle(outline: np.ndarray) -> float:
+    """Angle of an xy outline's long axis (of its smallest-area bounding rectangle), in [0, pi/2)."""
+    best_area, best_angle = np.inf, 0.0
+    for angle in np.linspace(0, np.pi / 2, 46, endpoint=False):
+        c, s = np.cos(angle), np.sin(angle)
+        rotated = outline @ np.array([[c, -s], [s, c]])
+        area = float(np.prod(rotated.max(0) - rotated.min(0)))
+        if area < best_area:
+            best_area, best_angle = area, angle
+    return best_angle
 
 
 def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tuple[np.ndarray, float] | None:
@@ -86,8 +108,8 @@ def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tup
     The outline is the held object's footprint (turned as it will be), as a rectangle around
     the body position. Inside it: the floor is the highest point under the middle half;
     anything above the region's box over the outline (a cabinet over its drawer) rules the
-    spot out; walls rising inside the outline are allowed only near its edge (rims), and
-    fewer is better.
+    spot out; walls rising inside the outline are allowed only near its edge (rims). Best is
+    the most room to the nearest walls beside it, then fewer rim points, then the centre.
     """
     assert ctx.held is not None
     scene = ctx.scene
@@ -121,15 +143,24 @@ def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tup
                 continue
             if ((edge < 0.9) & (local[:, 2] > hi[2] + 0.02)).any():
                 continue  # something overhead
-            walls = (edge < 0.9) & (local[:, 2] > floor + 0.03)
+            rising = local[:, 2] > floor + 0.03
+            walls = (edge < 0.9) & rising
             if (walls & (edge < 0.6)).any():
                 continue  # a wall through the middle of the outline, not just a rim at its edge
+            # Room to the nearest wall beside the outline along x and along y (m), each
+            # counted up to 1.5 cm: a narrow slot leaves a few mm, best shared on both sides.
+            gap = np.abs(local[rising, :2] - (xy + mid)) - half
+            room = sum(
+                min(float(gap[gap[:, 1 - axis] < 0, axis].min(initial=0.015)), 0.015) for axis in (0, 1)
+            )
             centre = float(np.linalg.norm(xy - site.pos[:2]))
-            candidates.append((int(walls.sum()), centre + float(ctx.rng.uniform(0, 0.01)), xy, floor))
+            candidates.append(
+                (-room, int(walls.sum()), centre + float(ctx.rng.uniform(0, 0.01)), xy, floor)
+            )
     if not candidates:
         return None
-    candidates.sort(key=lambda c: (c[0], c[1]))
-    _, _, xy, floor = candidates[0]
+    candidates.sort(key=lambda c: (c[0], c[1], c[2]))
+    *_, xy, floor = candidates[0]
     return xy, floor
 
 
