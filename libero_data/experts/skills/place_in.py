@@ -154,9 +154,7 @@ def _open_spot(ctx: Context, site: Site, mat: np.ndarray, container: str) -> tup
                 min(float(gap[gap[:, 1 - axis] < 0, axis].min(initial=0.015)), 0.015) for axis in (0, 1)
             )
             centre = float(np.linalg.norm(xy - site.pos[:2]))
-            candidates.append(
-                (-room, int(walls.sum()), centre + float(ctx.rng.uniform(0, 0.01)), xy, floor)
-            )
+            candidates.append((-room, int(walls.sum()), centre + float(ctx.rng.uniform(0, 0.01)), xy, floor))
     if not candidates:
         return None
     candidates.sort(key=lambda c: (c[0], c[1], c[2]))
