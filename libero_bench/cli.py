@@ -161,6 +161,20 @@ def run_cmd(
     loader_workers: Annotated[
         int, typer.Option("--loader-workers", help="DataLoader worker processes.", min=0)
     ] = 0,
+    executor: Annotated[
+        str,
+        typer.Option(
+            "--executor",
+            help="Where rollouts run: 'local' (--workers processes) or 'ray' (--workers Ray actors; same results).",
+        ),
+    ] = "local",
+    ray_address: Annotated[
+        str | None,
+        typer.Option(
+            "--ray-address",
+            help="Ray cluster to join (e.g. auto or ray://head:10001); default: start Ray here.",
+        ),
+    ] = None,
     threads: Annotated[
         int, typer.Option("--threads", help="Torch threads of the training process.", min=1)
     ] = 1,
@@ -204,7 +218,17 @@ def run_cmd(
     console = _console()
     with console.status("reading the dataset and embedding the tasks"):
         plan = plan_run(request)
-    options = RunOptions(device=device, workers=workers, loader_workers=loader_workers)
+    if executor not in ("local", "ray"):
+        raise typer.BadParameter(f"{executor!r}; choose local or ray", param_hint="--executor")
+    if ray_address and executor != "ray":
+        raise typer.BadParameter("--ray-address needs --executor ray", param_hint="--ray-address")
+    options = RunOptions(
+        device=device,
+        workers=workers,
+        loader_workers=loader_workers,
+        executor=executor,
+        ray_address=ray_address,
+    )
     trainer = Trainer(plan, out, options)
     started = time.perf_counter()
     trainer.prepare()

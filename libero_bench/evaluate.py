@@ -268,20 +268,98 @@ def _run_in_worker(job: RolloutJob) -> RolloutResult:
     return _RUNNER.run(job)
 
 
-class Evaluator:
-    """Runs rollout jobs with ``workers`` spawned processes (0: in this process).
+# -- Ray ------------------------------------------------------------------------------------------
+class RayRollouts:
+    """A Ray actor around a :class:`RolloutRunner` (one per worker, kept between rounds).
 
-    Use as a context manager; the pool lives as long as the evaluator, so workers keep their
-    imports and environments between evaluation rounds.
+    It writes each rollout into a scratch folder of its own machine and returns the files,
+    so a cluster needs no storage shared with the driver; the policy arrives as bytes.
     """
 
-    def __init__(self, workers: int, work_dir: Path) -> None:
+    def __init__(self) -> None:
+        import tempfile
+
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        os.environ.setdefault("SVT_LOG", "1")
+        import torch
+
+        torch.set_num_threads(1)
+        self.runner = RolloutRunner()
+        self.scratch = Path(tempfile.mkdtemp(prefix="libero-bench-ray-"))
+        self.policy_digest = ""
+
+    def run(self, job: RolloutJob, policy_bytes: bytes) -> tuple[RolloutResult, dict[str, bytes], bytes]:
+        import hashlib
+        import shutil
+
+        digest = hashlib.sha256(policy_bytes).hexdigest()[:16]
+        policy_file = self.scratch / f"policy-{digest}.pt"
+        if digest != self.policy_digest:
+            for old in self.scratch.glob("policy-*.pt"):
+                old.unlink()
+            policy_file.write_bytes(policy_bytes)
+            self.policy_digest = digest
+        shard = self.scratch / "shard"
+        rrd = self.scratch / "rollout.rrd"
+        shutil.rmtree(shard, ignore_errors=True)
+        local = dataclasses.replace(
+            job, policy_file=str(policy_file), shard_dir=str(shard), rrd_path=str(rrd)
+        )
+        result = self.runner.run(local)
+        files = {str(f.relative_to(shard)): f.read_bytes() for f in sorted(shard.rglob("*")) if f.is_file()}
+        return result, files, rrd.read_bytes()
+
+
+def _store_rollout(job: RolloutJob, files: Mapping[str, bytes], rrd: bytes) -> None:
+    """Write a rollout that ran elsewhere where a local worker would have written it."""
+    import shutil
+
+    from libero_data.record.shard import fsync_tree
+
+    shard = Path(job.shard_dir)
+    tmp = shard.with_name(f"{shard.name}.tmp-{os.getpid()}")
+    shutil.rmtree(tmp, ignore_errors=True)
+    for rel, data in files.items():
+        (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp / rel).write_bytes(data)
+    fsync_tree(tmp)
+    if shard.exists():
+        shutil.rmtree(shard)
+    tmp.rename(shard)
+    rrd_path = Path(job.rrd_path)
+    rrd_path.parent.mkdir(parents=True, exist_ok=True)
+    tmp_rrd = rrd_path.with_name(rrd_path.name + ".tmp")
+    tmp_rrd.write_bytes(rrd)
+    tmp_rrd.replace(rrd_path)
+
+
+EXECUTORS = ("local", "ray")
+
+
+class Evaluator:
+    """Runs rollout jobs with ``workers`` spawned processes (0: in this process), or Ray actors.
+
+    Use as a context manager; the pool lives as long as the evaluator, so workers keep their
+    imports and environments between evaluation rounds. With ``executor="ray"`` the rollouts
+    run on ``workers`` Ray actors (on the cluster at ``ray_address``, or on a Ray instance
+    started here); each rollout depends only on its job, so the results are the same.
+    """
+
+    def __init__(
+        self, workers: int, work_dir: Path, *, executor: str = "local", ray_address: str | None = None
+    ) -> None:
         if workers < 0:
             raise ValueError(f"workers must be >= 0, got {workers}")
+        if executor not in EXECUTORS:
+            raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
         self.workers = workers
         self.work_dir = Path(work_dir)
+        self.executor = executor
+        self.ray_address = ray_address
         self._pool: ProcessPoolExecutor | None = None
         self._local: RolloutRunner | None = None
+        self._actors: list[Any] = []
+        self._ray_started = False
         self._round = 0
 
     def __enter__(self) -> Evaluator:
@@ -297,6 +375,68 @@ class Evaluator:
         if self._local is not None:
             self._local.close()
             self._local = None
+        if self._actors or self._ray_started:
+            import ray
+
+            for actor in self._actors:
+                ray.kill(actor)
+            self._actors = []
+            if self._ray_started:
+                ray.shutdown()
+                self._ray_started = False
+
+    def _ray_actors(self) -> list[Any]:
+        if not self._actors:
+            try:
+                import ray
+            except ImportError as exc:
+                raise ValueError(
+                    "--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)"
+                ) from exc
+            if not ray.is_initialized():
+                env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+                if os.environ.get("MUJOCO_GL"):
+                    env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
+                options: dict[str, Any] = {
+                    "include_dashboard": False,
+                    "log_to_driver": False,
+                    "logging_level": logging.WARNING,
+                    "runtime_env": {"env_vars": env_vars},
+                }
+                if self.ray_address:
+                    ray.init(address=self.ray_address, **options)
+                else:
+                    ray.init(num_cpus=max(self.workers, 1), **options)
+                self._ray_started = True
+            actor = ray.remote(num_cpus=1)(RayRollouts)
+            self._actors = [actor.remote() for _ in range(max(self.workers, 1))]
+        return self._actors
+
+    def _run_on_ray(
+        self, jobs: Sequence[RolloutJob], policy_file: Path, on_done: Callable[[RolloutResult], None]
+    ) -> None:
+        import ray
+
+        actors = self._ray_actors()
+        policy = ray.put(policy_file.read_bytes())
+        by_ref: dict[Any, tuple[RolloutJob, Any]] = {}
+        queue = list(jobs)
+        idle = list(actors)
+        try:
+            while queue or by_ref:
+                while queue and idle:
+                    job, actor = queue.pop(0), idle.pop(0)
+                    by_ref[actor.run.remote(job, policy)] = (job, actor)
+                done, _ = ray.wait(list(by_ref), num_returns=1)
+                job, actor = by_ref.pop(done[0])
+                idle.append(actor)
+                result, files, rrd = ray.get(done[0])
+                _store_rollout(job, files, rrd)
+                on_done(result)
+        except BaseException:
+            for ref in by_ref:
+                ray.cancel(ref, force=True)
+            raise
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
@@ -321,15 +461,20 @@ class Evaluator:
         policy_file = save_policy_file(policy, self.work_dir / f"policy-{os.getpid()}-{self._round}.pt")
         jobs = [dataclasses.replace(j, policy_file=str(policy_file)) for j in jobs]
         results: dict[str, RolloutResult] = {}
+
+        def done(result: RolloutResult) -> None:
+            results[result.key] = result
+            if on_result:
+                on_result(result)
+
         try:
-            if self.workers == 0:
+            if self.executor == "ray":
+                self._run_on_ray(jobs, policy_file, done)
+            elif self.workers == 0:
                 if self._local is None:
                     self._local = RolloutRunner()
                 for job in jobs:
-                    result = self._local.run(job)
-                    results[job.key] = result
-                    if on_result:
-                        on_result(result)
+                    done(self._local.run(job))
             else:
                 from concurrent.futures import as_completed
 
@@ -337,10 +482,7 @@ class Evaluator:
                 futures = [pool.submit(_run_in_worker, job) for job in jobs]
                 try:
                     for future in as_completed(futures):
-                        result = future.result()
-                        results[result.key] = result
-                        if on_result:
-                            on_result(result)
+                        done(future.result())
                 except BaseException:
                     for future in futures:
                         future.cancel()

@@ -110,6 +110,8 @@ class RunOptions:
     device: str = "cpu"
     workers: int = 1  # rollout worker processes; 0 = in this process
     loader_workers: int = 0  # DataLoader worker processes
+    executor: str = "local"  # rollouts in local processes or on Ray ("ray")
+    ray_address: str | None = None  # a Ray cluster to join; None: start Ray here
 
 
 # -- planning ------------------------------------------------------------------------------------
@@ -206,7 +208,12 @@ class RunPlan:
             "preset": preset.to_dict(),
             "seed": self.seed,
             "init_checkpoint": str(req.init_checkpoint.resolve()) if req.init_checkpoint else None,
-            "runtime": {"device": options.device, "workers": options.workers, "versions": _versions()},
+            "runtime": {
+                "device": options.device,
+                "workers": options.workers,
+                "executor": options.executor,
+                "versions": _versions(),
+            },
         }
 
 
@@ -644,7 +651,12 @@ class Trainer:
         algo = self._new_algo()
         self._policy, self._algo = policy, algo
         self.folder.work.mkdir(parents=True, exist_ok=True)
-        with Evaluator(self.options.workers, self.folder.work) as evaluator:
+        with Evaluator(
+            self.options.workers,
+            self.folder.work,
+            executor=self.options.executor,
+            ray_address=self.options.ray_address,
+        ) as evaluator:
             self._evaluator = evaluator
             try:
                 if self.plan.needs_all_tasks:

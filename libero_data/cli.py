@@ -234,6 +234,20 @@ def generate_cmd(
             "--publish-every", help="Seconds between snapshots of the growing dataset in --out.", min=0.0
         ),
     ] = 60.0,
+    executor: Annotated[
+        str,
+        typer.Option(
+            "--executor",
+            help="Where episodes run: 'local' (--workers processes here) or 'ray' (Ray tasks; same dataset).",
+        ),
+    ] = "local",
+    ray_address: Annotated[
+        str | None,
+        typer.Option(
+            "--ray-address",
+            help="Ray cluster to join (e.g. ray://head:10001 or auto); default: start Ray here with --workers CPUs.",
+        ),
+    ] = None,
 ) -> None:
     """Generate scripted demonstrations as a LeRobot v3 dataset, with MCAP logs and a dataset card.
 
@@ -255,6 +269,10 @@ def generate_cmd(
     from libero_data.pipeline.generate import generate, resolve_request
 
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
+    if executor not in ("local", "ray"):
+        raise typer.BadParameter(f"{executor!r}; choose local or ray", param_hint="--executor")
+    if ray_address and executor != "ray":
+        raise typer.BadParameter("--ray-address needs --executor ray", param_hint="--ray-address")
     task_refs = [part for item in (tasks or []) for part in item.split(",") if part]
     if procedural is not None and variants_of is not None:
         raise typer.BadParameter("choose --procedural or --variants-of, not both")
@@ -291,7 +309,8 @@ def generate_cmd(
     console = _console()
     console.print(
         f"generating {len(request.tasks)} task(s) × {request.episodes_per_task} episode(s) of {suite} into {out} "
-        f"with {workers} worker(s)",
+        + (f"on Ray ({ray_address})" if executor == "ray" and ray_address else f"with {workers} worker(s)")
+        + (" via Ray" if executor == "ray" and not ray_address else ""),
         markup=False,
     )
     columns = [
@@ -321,7 +340,14 @@ def generate_cmd(
 
         try:
             result = generate(
-                request, out, workers=workers, on_progress=show, command=command, publish_every=publish_every
+                request,
+                out,
+                workers=workers,
+                on_progress=show,
+                command=command,
+                publish_every=publish_every,
+                executor=executor,
+                ray_address=ray_address,
             )
         except KeyboardInterrupt:
             raise fail(
@@ -612,7 +638,15 @@ def expert_report_cmd(
 
     with Progress(*columns, console=_console(stderr=True)) as bar:
         job = bar.add_task("tasks", total=len(refs), completed=len(refs) - len(todo), last="")
-        run_report(todo, inits, seed=seed, workers=workers, config=config, on_task=finished)
+        run_report(
+            todo,
+            inits,
+            seed=seed,
+            workers=workers,
+            config=config,
+            on_task=finished,
+            fingerprint=str(settings["expert"]),
+        )
     results = rows()
     csv_path, md_path = write_report(results, out, meta=meta())
     console = _console()

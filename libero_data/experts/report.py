@@ -195,9 +195,17 @@ def _reason(text: str | None) -> str:
     return " ".join(words)[:60] or text[:60]
 
 
-def _worker(args: tuple[str, int, int, ExpertConfig]) -> tuple[str, TaskResult]:
+def _worker(args: tuple[str, int, int, ExpertConfig, str]) -> tuple[str, TaskResult]:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    ref, inits, seed, config = args
+    ref, inits, seed, config, fingerprint = args
+    # Worker processes are replaced every few tasks and import the code afresh: a task
+    # measured with code edited since the report started must not join its rows.
+    now = expert_fingerprint()
+    if now != fingerprint:
+        raise ValueError(
+            f"the expert's code changed while the report ran (was {fingerprint}, now {now}); "
+            f"{ref} was not measured. Run the command again to go on with the new code (--fresh)"
+        )
     return ref, evaluate_task(ref, inits, seed=seed, config=config)
 
 
@@ -209,14 +217,17 @@ def run_report(
     workers: int = 1,
     config: ExpertConfig | None = None,
     on_task: Callable[[str, TaskResult], None] | None = None,
+    fingerprint: str | None = None,
 ) -> list[TaskResult]:
     """Evaluate many tasks, in ``workers`` processes; results in the order given.
 
-    ``on_task`` is called as each task finishes (in finishing order).
+    ``on_task`` is called as each task finishes (in finishing order). Every task first
+    checks that the expert's code still has ``fingerprint`` (default: as it is now).
     """
     refs = list(task_refs)
     config = config or ExpertConfig()
-    jobs = [(ref, inits, seed, config) for ref in refs]
+    fingerprint = fingerprint or expert_fingerprint()
+    jobs = [(ref, inits, seed, config, fingerprint) for ref in refs]
     results: dict[str, TaskResult] = {}
     if workers <= 1:
         for job in jobs:

@@ -95,6 +95,10 @@ class SceneView:
             raise KeyError(f"no object or body {name!r} in the scene")
         return int(i)
 
+    def shoulder_pos(self) -> np.ndarray:
+        """World position of the arm's shoulder (the second joint's link)."""
+        return self.data.xpos[self.body_id("robot0_link2")].copy()
+
     def body_name(self, body: int) -> str:
         return self._body_names[body]
 

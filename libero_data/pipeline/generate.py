@@ -360,6 +360,9 @@ def _check_out_dir(out: Path, request: GenerateRequest) -> None:
         )
 
 
+EXECUTORS = ("local", "ray")
+
+
 def generate(
     request: GenerateRequest,
     out: str | Path,
@@ -368,8 +371,18 @@ def generate(
     publish_every: float = 60.0,
     on_progress: Callable[[Progress], None] | None = None,
     command: str = "",
+    executor: str = "local",
+    ray_address: str | None = None,
 ) -> Progress:
-    """Generate (or continue generating) the requested dataset into ``out``."""
+    """Generate (or continue generating) the requested dataset into ``out``.
+
+    ``executor="local"`` runs ``workers`` processes on this machine; ``"ray"`` runs the
+    episodes as Ray tasks (on the cluster at ``ray_address``, or on a Ray instance started
+    here with ``workers`` CPUs). Either way the driver writes every file, so the cluster
+    needs no shared storage, and the same request gives the same dataset.
+    """
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     from libero_data.pipeline.publish import recover
 
     out = Path(out).resolve()
@@ -430,7 +443,11 @@ def generate(
                 on_progress(progress)
 
         request_json = request.to_json()
-        if workers <= 1:
+        if executor == "ray":
+            for result in _run_on_ray(work, request_json, jobs, width, workers, ray_address):
+                note(*result)
+                maybe_publish()
+        elif workers <= 1:
             for position, task_index, ks in jobs:
                 run_job(
                     str(work),
@@ -474,6 +491,114 @@ def generate(
                     note(key, ok, n)
         maybe_publish(force=True)
         return progress
+
+
+# --------------------------------------------------------------------------------------------
+# Ray
+
+
+def _ray_job(
+    request_json: dict[str, Any], task_index: int, position: int, k: int, width: int
+) -> dict[str, Any]:
+    """One episode on a Ray worker: searched and rendered in a scratch folder, returned as bytes."""
+    import shutil
+    import tempfile
+
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    scratch = Path(tempfile.mkdtemp(prefix="libero-data-ray-"))
+    try:
+        ((k_done, success, attempts),) = run_job(str(scratch), request_json, task_index, position, [k], width)
+        slot = Slot(position, task_index, k_done)
+        search = _search_path(scratch, slot).read_bytes()
+        shard_dir = _shard_path(scratch, slot)
+        files = (
+            {
+                str(f.relative_to(shard_dir)): f.read_bytes()
+                for f in sorted(shard_dir.rglob("*"))
+                if f.is_file()
+            }
+            if shard_dir.is_dir()
+            else {}
+        )
+        return {"key": slot.key, "success": success, "attempts": attempts, "search": search, "shard": files}
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _store_ray_result(work: Path, result: dict[str, Any]) -> None:
+    """Write a Ray episode's shard and search record into ``work``, each renamed into place."""
+    from libero_data.record.shard import fsync_tree
+
+    key = result["key"]
+    if result["shard"]:
+        shard = work / "shards" / key
+        tmp = shard.with_name(f"{shard.name}.tmp-{os.getpid()}")
+        for rel, data in result["shard"].items():
+            target = tmp / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(data)
+        fsync_tree(tmp)
+        if shard.exists():
+            import shutil
+
+            shutil.rmtree(tmp)
+        else:
+            tmp.rename(shard)
+    # The search record last: its presence is what marks the episode as done.
+    search = work / "search" / f"{key}.npz"
+    search.parent.mkdir(parents=True, exist_ok=True)
+    tmp_search = search.with_name(search.name + ".tmp.npz")
+    with tmp_search.open("wb") as f:
+        f.write(result["search"])
+        f.flush()
+        os.fsync(f.fileno())
+    tmp_search.replace(search)
+
+
+def _run_on_ray(
+    work: Path,
+    request_json: dict[str, Any],
+    jobs: list[tuple[int, int, list[int]]],
+    width: int,
+    workers: int,
+    address: str | None,
+) -> Iterator[tuple[str, bool, int]]:
+    """Run every unfinished episode as a Ray task; yields (key, success, attempts) as they land."""
+    try:
+        import ray
+    except ImportError as exc:
+        raise ValueError("--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)") from exc
+
+    started_here = not ray.is_initialized()
+    if started_here:
+        env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+        if os.environ.get("MUJOCO_GL"):
+            env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
+        options: dict[str, Any] = {
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "logging_level": logging.WARNING,
+            "runtime_env": {"env_vars": env_vars},
+        }
+        if address:
+            ray.init(address=address, **options)
+        else:
+            ray.init(num_cpus=workers, **options)
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=2)(_ray_job)
+        pending = [
+            remote.remote(request_json, task_index, position, k, width)
+            for position, task_index, ks in jobs
+            for k in ks
+        ]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            result = ray.get(done[0])
+            _store_ray_result(work, result)
+            yield result["key"], bool(result["success"]), int(result["attempts"])
+    finally:
+        if started_here:
+            ray.shutdown()
 
 
 def _remove_leftovers(work: Path) -> None:

@@ -121,7 +121,7 @@ def write_frames(
         metadata={k: json.dumps(v) for k, v in info.items()},
     )
     (tmp / INFO_NAME).write_text(json.dumps({**info, "length": len(frames)}, sort_keys=True))
-    _fsync_tree(tmp)
+    fsync_tree(tmp)
     if out.exists():
         shutil.rmtree(out)
     tmp.rename(out)
@@ -142,7 +142,7 @@ def quiet_datasets() -> Iterator[None]:
             enable_progress_bars()
 
 
-def _fsync_tree(root: Path) -> None:
+def fsync_tree(root: Path) -> None:
     """Flush a freshly written folder to disk before it is renamed into place."""
     for path in sorted(root.rglob("*")):
         if path.is_file():

@@ -257,6 +257,27 @@ def test_resume_after_sigkill_gives_the_same_results(
     )
 
 
+def test_ray_executor_gives_the_same_results(bench_run: Path, tiny_dataset: Path, tmp_path: Path) -> None:
+    out = tmp_path / "on_ray"
+    args = ["run", "--data", str(tiny_dataset), *RUN_ARGS, "--executor", "ray", "--workers", "2"]
+    result = bench(*args, "--out", str(out))
+    assert result.returncode == 0, result.stderr[-3000:]
+    # Rollouts on Ray actors or in local worker processes: the same success numbers, episodes,
+    # recordings and rollout data.
+    assert _results(out) == _results(bench_run)
+    assert _episodes(out) == _episodes(bench_run)
+    assert sorted(p.name for p in (out / "rrd").iterdir()) == sorted(
+        p.name for p in (bench_run / "rrd").iterdir()
+    )
+    import datasets
+
+    ours = datasets.load_dataset(str(out / "rollouts"), split="train")
+    theirs = datasets.load_dataset(str(bench_run / "rollouts"), split="train")
+    for column in ("action", "observation.state", "observation.sim_state"):
+        np.testing.assert_array_equal(np.array(ours[column]), np.array(theirs[column]))
+    assert not list((out / ".work").glob("**/*.tmp*"))
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

@@ -45,6 +45,14 @@ def test_journal_refuses_other_settings(tmp_path: Path) -> None:
     assert fresh.done == {}
 
 
+def test_a_task_is_not_measured_with_code_edited_after_the_start() -> None:
+    # Worker processes import the code afresh every few tasks: each task checks the hash.
+    from libero_data.experts.report import run_report
+
+    with pytest.raises(ValueError, match="expert's code changed while the report ran"):
+        run_report(["libero_goal/0"], 1, fingerprint="000000000000")
+
+
 @pytest.mark.sim
 def test_expert_report_writes_tables_and_resumes(tmp_path: Path) -> None:
     args = ["expert-report", "--suite", "libero_goal", "--tasks", "7", "--inits", "1", "--out", str(tmp_path)]

@@ -40,6 +40,9 @@ class Pick(Skill):
         # moved) and spots within 2 cm of a missed one are skipped.
         missed: list[np.ndarray] = []
         yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12)
+        if not insertion and not _any_grasp(ctx, obj):
+            # Boxed in (a pudding pressed against a bowl): slide it a few cm into the open.
+            yield from _nudge_into_the_open(ctx, obj)
         for attempt in range(3):
             yield from wait_until_still(ctx, obj)
             grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
@@ -47,8 +50,7 @@ class Pick(Skill):
                 grasps = plan_top_down(
                     scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), pad_tolerance=0.008
                 )
-            if insertion:
-                grasps = _for_side_insertion(ctx, obj, grasps)
+            grasps = _for_side_insertion(ctx, obj, grasps) if insertion else _within_reach(ctx, grasps)
             grasps = [g for g in grasps if all(np.linalg.norm(g.pos[:2] - m[:2]) >= 0.02 for m in missed)]
             if not grasps:
                 raise SkillFailed(f"no top-down grasp fits {obj}" if not missed else f"missed {obj}")
@@ -100,6 +102,70 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         yield from lift(ctx, scene.eef_pos()[2] + 0.05)
         return False
     return True
+
+
+def _any_grasp(ctx: Context, obj: str) -> bool:
+    scene, yaw = ctx.scene, yaw_of_closing(ctx.scene.eef_mat())
+    return bool(
+        plan_top_down(scene, obj, yaw_reference=yaw, limit=1)
+        or plan_top_down(scene, obj, yaw_reference=yaw, pad_tolerance=0.008, limit=1)
+    )
+
+
+def _nudge_into_the_open(ctx: Context, obj: str, distance: float = 0.05) -> Actions:
+    """Push the object ``distance`` away from what crowds it (closed finger tips, low)."""
+    from libero_data.experts.skills.push import _stroke
+
+    scene = ctx.scene
+    lo, hi = scene.aabb(obj)
+    others = scene.obstacle_points(exclude=(obj,))
+    crowd = others[
+        np.all((others[:, :2] > lo[:2] - 0.05) & (others[:, :2] < hi[:2] + 0.05), axis=1)
+        & (others[:, 2] > lo[2] + 0.01)
+    ]
+    if len(crowd) == 0:
+        return False
+    away = scene.pos(obj)[:2] - crowd[:, :2].mean(0)
+    if np.linalg.norm(away) < 1e-6:
+        return False
+    stroke = _stroke(ctx, obj, away / np.linalg.norm(away), set())
+    if stroke is None:
+        return False
+    start, direction, mat, _ = stroke
+    ctx.motion.gripper = CLOSE
+    yield from lift(ctx, start[2] + 0.08)
+    yield from ctx.motion.move(start + np.array([0, 0, 0.06]), mat, tol=0.01, max_steps=120)
+    yield from ctx.motion.move(start, mat, speed=0.1, tol=0.006, max_steps=40)
+    # From behind the object to where its body should end up: it moves about ``distance``.
+    travel = float((scene.pos(obj)[:2] - start[:2]) @ direction) + distance + ctx.jitter(0.005)
+    end = start + np.array([*(direction * travel), -0.02])
+    yield from ctx.motion.move(end, mat, speed=0.1, tol=0.006, max_steps=60)
+    yield from lift(ctx, scene.eef_pos()[2] + 0.08)
+    ctx.motion.gripper = OPEN
+    yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12)
+    return True
+
+
+#: Grip-site distance from the shoulder (m) beyond which a top-down hand nears the
+#: straight-elbow limit (measured: the arm locks at ~0.84 m and cannot pull back in).
+COMFORTABLE_REACH = 0.79
+
+
+def _within_reach(ctx: Context, grasps: list) -> list:
+    """Re-rank grasps far from the robot: each cm beyond a comfortable reach costs 1 score point.
+
+    A far object (a bowl at the table's far edge) grasped on its far rim leaves the arm
+    stretched straight, and from there it cannot carry the object back toward itself; its
+    near rim is as good a grasp and a few cm closer.
+    """
+    shoulder = ctx.scene.shoulder_pos()
+
+    def excess(g) -> float:
+        return max(float(np.linalg.norm(g.pos - shoulder)) - COMFORTABLE_REACH, 0.0)
+
+    if not grasps or all(excess(g) == 0.0 for g in grasps):
+        return grasps
+    return sorted(grasps, key=lambda g: -(g.score - excess(g) / 0.01))
 
 
 def _for_side_insertion(ctx: Context, obj: str, grasps: list) -> list:

@@ -51,9 +51,38 @@ class PlaceIn(Skill):
         if spot is None:
             raise SkillFailed(f"no open spot in {region} for {obj}")
         xy, floor = spot
+        if floor + held_offset(ctx)[1] > _box(site)[1][2] - 0.003:
+            # Standing up, its body would stay above the region's box (a ketchup bottle in a
+            # shallow drawer): set it down at one end and tip it over onto its side.
+            return (yield from _lay_down(ctx, site, mat, xy, floor))
         yield from carry_to(ctx, xy, floor + 0.015 + ctx.jitter(0.005), mat)
         yield from release(ctx)
         return True
+
+
+def _lay_down(ctx: Context, site: Site, mat: np.ndarray, xy: np.ndarray, floor: float) -> Actions:
+    """Stand the held object at one end of the region, then tip it over along the region."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    lo, hi = _box(site)
+    pts = scene.points(ctx.held)
+    height = float(pts[:, 2].max() - pts[:, 2].min())
+    radius = float(np.abs(footprint(ctx, mat)).max())
+    # Tip along the region's longer side, towards whichever end is farther from the spot.
+    axis = int(np.argmax((hi - lo)[:2]))
+    d = np.zeros(2)
+    d[axis] = 1.0 if hi[axis] - xy[axis] >= xy[axis] - lo[axis] else -1.0
+    start_end, far_end = (lo[axis], hi[axis]) if d[axis] > 0 else (-hi[axis], -lo[axis])
+    along = float(xy @ d)
+    along = min(along, far_end - 0.95 * height)
+    along = max(along, start_end + radius + 0.01)
+    body = xy.copy()
+    body[axis] = along * d[axis]
+    yield from carry_to(ctx, body, floor + 0.008, mat)
+    tip = scene.eef_pos() + np.array([*(d * 0.5 * height), -0.3 * height])
+    yield from ctx.motion.move(tip, mat, speed=0.15, tol=0.01, max_steps=50)
+    yield from release(ctx)
+    return True
 
 
 def _box(site: Site) -> tuple[np.ndarray, np.ndarray]:
@@ -237,13 +266,15 @@ def _insert_from_side(ctx: Context, site: Site, region: str) -> Actions:
     bottom = floor + 0.012 + ctx.jitter(0.003)
     body_z = bottom + hang
     depth_max = float(np.abs(out) @ (2 * half[:2]))
-    reach = float(np.abs(outline @ out).max())
+    # How far the object reaches ahead of its body into the region (a pan held by its
+    # handle reaches in with its pan only; the handle stays out, and In checks the body).
+    reach_in = float(max(-(outline @ out).min(), 0.0))
     chosen = None
     opening = scene.finger_opening()
     side = np.array([-out[1], out[0]])
     width = float(np.abs(side) @ half[:2])
     shifts = sorted(np.linspace(-0.8 * width, 0.8 * width, 17), key=abs)
-    for depth in np.arange(depth_max - reach, 0.0, -0.005):
+    for depth in np.arange(depth_max - reach_in, 0.0, -0.005):
         for shift in shifts:
             body = np.array([*(face - out * depth + side * shift), body_z])
             eef = body + body_to_eef
@@ -258,12 +289,16 @@ def _insert_from_side(ctx: Context, site: Site, region: str) -> Actions:
         )
         raise SkillFailed(f"the hand does not fit into {region}")
     body, eef = chosen
-    outside = body[:2] + out * (float(np.linalg.norm(body[:2] - face)) + reach + 0.06)
+    outside = body[:2] + out * (float(np.linalg.norm(body[:2] - face)) + reach_in + 0.06)
     yield from carry_to(ctx, outside, bottom, mat)
-    yield from ctx.motion.move(eef, mat, speed=0.1, tol=0.006, max_steps=80)
+    # About 3 mm per step at this speed: allow for the whole way in (a long-handled pan
+    # starts far out).
+    way = float(np.linalg.norm(scene.eef_pos() - eef))
+    yield from ctx.motion.move(eef, mat, speed=0.1, tol=0.006, max_steps=max(80, int(40 + way / 0.0025)))
     yield from ctx.motion.set_gripper(OPEN, steps=8, mat=mat)
     ctx.held = None
-    back = scene.eef_pos() + np.array([*(out * (reach + 0.08)), 0.0])
+    inside = max(float((face - scene.eef_pos()[:2]) @ out), 0.0)  # how deep the hand went in
+    back = scene.eef_pos() + np.array([*(out * (inside + 0.08)), 0.0])
     yield from ctx.motion.move(back, mat, speed=0.15, tol=0.015, max_steps=60)
     yield from lift(ctx, scene.eef_pos()[2] + 0.08)
     return True
