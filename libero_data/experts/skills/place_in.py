@@ -55,9 +55,36 @@ class PlaceIn(Skill):
             # Standing up, its body would stay above the region's box (a ketchup bottle in a
             # shallow drawer): set it down at one end and tip it over onto its side.
             return (yield from _lay_down(ctx, site, mat, xy, floor))
+        if _narrow(ctx, site, mat):
+            # A few mm to spare (a book into a caddy slot): stop above the walls, look how the
+            # object really hangs in the hand (it may have turned a little), square it again.
+            walls = _wall_top(ctx, site, xy)
+            yield from carry_to(ctx, xy, floor + 0.015, mat, above=max(walls - floor, 0.0) + 0.02)
+            residual = _outline_angle(footprint(ctx, scene.eef_mat()))
+            residual = residual if residual < np.pi / 4 else residual - np.pi / 2
+            if abs(residual) > np.deg2rad(1.5):
+                yield from turn_wrist(ctx, -residual)
+                mat = scene.eef_mat()
+                xy, floor = _open_spot(ctx, site, mat, container) or (xy, floor)
         yield from carry_to(ctx, xy, floor + 0.015 + ctx.jitter(0.005), mat)
         yield from release(ctx)
         return True
+
+
+def _narrow(ctx: Context, site: Site, mat: np.ndarray) -> bool:
+    """Whether the held object's outline leaves less than 1.5 cm of the region on a side."""
+    lo, hi = _box(site)
+    outline = footprint(ctx, mat)
+    spare = (hi - lo)[:2] / 2 - (outline.max(0) - outline.min(0)) / 2
+    return bool(spare.min() < 0.015)
+
+
+def _wall_top(ctx: Context, site: Site, xy: np.ndarray) -> float:
+    """Top of what stands around the drop spot (walls, dividers), within 15 cm of it."""
+    hi = _box(site)[1]
+    pts = ctx.scene.obstacle_points(exclude=(ctx.held,) if ctx.held else ())
+    near = np.linalg.norm(pts[:, :2] - xy, axis=1) < 0.15
+    return float(pts[near, 2].max()) if near.any() else float(hi[2])
 
 
 def _lay_down(ctx: Context, site: Site, mat: np.ndarray, xy: np.ndarray, floor: float) -> Actions:
