@@ -1,0 +1,160 @@
+"""Evaluation throughput: rollouts per minute with 1 and 2 worker processes, worker memory.
+
+``libero_bench.evaluate.Evaluator`` runs ``--rollouts`` rollouts of a smoke-size ResNet-T
+policy (untrained: its rollouts run to ``--max-steps``, the worst case) on one task, both
+cameras at ``--size``, each rollout written as a LeRobot shard, MCAP log and Rerun
+recording like in a real run. Measured with 1 and with 2 worker processes (the pool is
+started and warmed up with one round first, as a run's pool stays up between rounds).
+Peak resident memory (VmHWM) of every worker is read from /proc.
+
+With ``--memory-rollouts N`` a single worker then runs N more rollouts and its resident
+memory (VmRSS) is sampled after each: growth across them would be a leak.
+Prints Markdown and, with ``--results``, replaces this benchmark's section of
+``benchmarks/RESULTS.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("SVT_LOG", "1")
+
+
+def _mib(pid: int, field: str) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def _jobs(task_ref: str, n: int, size: int, max_steps: int, work: Path, first: int = 0) -> list[Any]:
+    import numpy as np
+
+    from libero_bench.evaluate import EvalTask, make_job
+    from libero_data.tasks import get_task
+
+    task = get_task(task_ref)
+    states = task.init_states()
+    eval_task = EvalTask(
+        name=task.name,
+        language=task.language,
+        position=0,
+        env_ref=str(task.bddl_path),
+        task_emb=np.zeros(384, dtype=np.float32),
+        init_states=states,
+    )
+    return [
+        make_job(
+            eval_task,
+            r,
+            key=f"r{r:04d}",
+            settle=10,
+            max_steps=max_steps,
+            image_size=size,
+            sim_state_width=states.shape[1],
+            shard_dir=work / "shards" / f"r{r:04d}",
+            rrd_path=work / "rrd" / f"r{r:04d}.rrd",
+            tags={"bench": True},
+        )
+        for r in range(first, first + n)
+    ]
+
+
+def _policy(size: int) -> Any:
+    import torch
+
+    from libero_bench.policies import make_policy
+
+    torch.manual_seed(0)
+    return make_policy("resnet_t", "smoke", image_size=size)
+
+
+def rate(task_ref: str, workers: int, rollouts: int, size: int, max_steps: int) -> tuple[float, list[float]]:
+    """(rollouts per minute, peak MiB of each worker)."""
+    from libero_bench.evaluate import Evaluator
+
+    work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
+    policy = _policy(size)
+    try:
+        with Evaluator(workers, work) as evaluator:
+            evaluator.run(policy, _jobs(task_ref, workers, size, max_steps, work / "warm"))  # start + warm up
+            start = time.perf_counter()
+            evaluator.run(policy, _jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers))
+            minutes = (time.perf_counter() - start) / 60
+            pool = evaluator._pool
+            pids = list(pool._processes) if pool is not None and pool._processes else []
+            peaks = [_mib(pid, "VmHWM") for pid in pids]
+        return rollouts / minutes, peaks
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> list[float]:
+    """Resident MiB of one worker after each of ``rollouts`` rollouts."""
+    from libero_bench.evaluate import Evaluator
+
+    work = Path(tempfile.mkdtemp(prefix="bench-eval-mem-"))
+    policy = _policy(size)
+    trace = []
+    try:
+        with Evaluator(1, work) as evaluator:
+            for r in range(rollouts):
+                evaluator.run(policy, _jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
+                pid = next(iter(evaluator._pool._processes))  # type: ignore[union-attr]
+                trace.append(_mib(pid, "VmRSS"))
+                shutil.rmtree(work / f"m{r}", ignore_errors=True)
+        return trace
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--task", default="libero_object/0")
+    parser.add_argument("--rollouts", type=int, default=8)
+    parser.add_argument("--max-steps", type=int, default=40)
+    parser.add_argument("--size", type=int, default=128)
+    parser.add_argument("--memory-rollouts", type=int, default=0)
+    parser.add_argument("--results", type=Path, help="RESULTS.md to update")
+    args = parser.parse_args()
+    one, peaks1 = rate(args.task, 1, args.rollouts, args.size, args.max_steps)
+    two, peaks2 = rate(args.task, 2, args.rollouts, args.size, args.max_steps)
+    lines = [
+        f"Run: `python -m benchmarks.bench_eval --task {args.task} --rollouts {args.rollouts} --max-steps "
+        f"{args.max_steps} --size {args.size}"
+        + (f" --memory-rollouts {args.memory_rollouts}" if args.memory_rollouts else "")
+        + "` (smoke ResNet-T, untrained, so every rollout runs to the step limit; two cameras; "
+        "each rollout stored as shard + MCAP + .rrd).",
+        "",
+        "| workers | rollouts/min | speed-up | peak MiB per worker | target |",
+        "|---:|---:|---:|---|---|",
+        f"| 1 | {one:.1f} | 1.00 | {', '.join(f'{p:.0f}' for p in peaks1)} | |",
+        f"| 2 | {two:.1f} | {two / one:.2f}× | {', '.join(f'{p:.0f}' for p in peaks2)} | ≥ 1.8× |",
+    ]
+    if args.memory_rollouts:
+        trace = memory_trace(args.task, args.memory_rollouts, args.size, args.max_steps)
+        tenth = max(len(trace) // 10, 1)
+        early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
+        lines += [
+            "",
+            f"Worker memory over {len(trace)} rollouts (one worker, resident MiB after each): first "
+            f"{trace[0]:.0f}, mean of the first tenth {early:.0f}, of the last tenth {late:.0f}, max "
+            f"{max(trace):.0f}; growth from the first to the last tenth {late - early:+.0f} MiB.",
+        ]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.results:
+        from benchmarks.results import replace_section
+
+        replace_section(args.results, "Evaluation", text)
+
+
+if __name__ == "__main__":
+    main()
