@@ -39,8 +39,10 @@ class ScriptedEvaluator:
 
     calls: ClassVar[list[dict[str, Any]]] = []
 
-    def __init__(self, workers: int, work_dir: Path) -> None:
-        pass
+    def __init__(
+        self, workers: int, work_dir: Path, *, executor: str = "local", ray_address: str | None = None
+    ) -> None:
+        assert executor == "local" and ray_address is None  # what RunOptions defaults to
 
     def __enter__(self) -> ScriptedEvaluator:
         return self
