@@ -73,10 +73,10 @@ def one_run(
 
 
 def measure(
-    root: Path, device: str, steps: int, warmup: int, reps: int, workers: int
+    root: Path, device: str, steps: int, warmup: int, reps: int, workers: int, sizes: list[str]
 ) -> list[dict[str, Any]]:
     rows = []
-    for size in ("paper", "smoke"):
+    for size in sizes:
         for name in POLICIES:
             runs = [one_run(root, name, size, device, steps, warmup, workers) for _ in range(reps)]
             rows.append(
@@ -93,7 +93,7 @@ def measure(
 def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
     lines = [
         f"Run: `python -m benchmarks.bench_training <dataset> --device {args.device} --steps {args.steps} "
-        f"--reps {args.reps}` (window loader with {args.workers} loader workers; paper batch 32, smoke batch 8; "
+        f"--reps {args.reps} --sizes {args.sizes}` (window loader with {args.workers} loader workers; paper batch 32, smoke batch 8; "
         f"window 10; medians of {args.reps} runs of {args.steps} steps after {args.warmup} warm-up steps).",
         "",
         "| policy | size | samples/s | data wait share | target |",
@@ -114,18 +114,20 @@ def main() -> None:
     parser.add_argument("--warmup", type=int, default=2)
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--workers", type=int, default=0, help="DataLoader worker processes")
+    parser.add_argument("--sizes", default="paper,smoke", help="policy sizes to measure (comma-separated)")
     parser.add_argument("--results", type=Path, help="RESULTS.md to update")
     args = parser.parse_args()
     import torch
 
     torch.set_num_threads(int(os.environ.get("OMP_NUM_THREADS", "1")))
-    rows = measure(args.dataset, args.device, args.steps, args.warmup, args.reps, args.workers)
+    sizes = [x for x in args.sizes.split(",") if x]
+    rows = measure(args.dataset, args.device, args.steps, args.warmup, args.reps, args.workers, sizes)
     text = table(rows, args)
     print(text)
     if args.results:
         from benchmarks.results import replace_section
 
-        replace_section(args.results, f"Training ({args.device})", text)
+        replace_section(args.results, f"Training ({args.device}, {' and '.join(sizes)} sizes)", text)
 
 
 if __name__ == "__main__":
