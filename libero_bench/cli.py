@@ -218,10 +218,11 @@ def run_cmd(
     console = _console()
     with console.status("reading the dataset and embedding the tasks"):
         plan = plan_run(request)
-    if executor not in ("local", "ray"):
-        raise typer.BadParameter(f"{executor!r}; choose local or ray", param_hint="--executor")
-    if ray_address and executor != "ray":
-        raise typer.BadParameter("--ray-address needs --executor ray", param_hint="--ray-address")
+    from libero_data.pipeline.ray_runtime import executor_problem
+
+    problem = executor_problem(executor, ray_address)
+    if problem is not None:
+        raise typer.BadParameter(problem[1], param_hint=problem[0])
     options = RunOptions(
         device=device,
         workers=workers,

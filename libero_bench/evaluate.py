@@ -292,6 +292,8 @@ class RayRollouts:
         import hashlib
         import shutil
 
+        from libero_data.record.shard import pack_tree
+
         digest = hashlib.sha256(policy_bytes).hexdigest()[:16]
         policy_file = self.scratch / f"policy-{digest}.pt"
         if digest != self.policy_digest:
@@ -306,34 +308,19 @@ class RayRollouts:
             job, policy_file=str(policy_file), shard_dir=str(shard), rrd_path=str(rrd)
         )
         result = self.runner.run(local)
-        files = {str(f.relative_to(shard)): f.read_bytes() for f in sorted(shard.rglob("*")) if f.is_file()}
-        return result, files, rrd.read_bytes()
+        return result, pack_tree(shard), rrd.read_bytes()
 
 
-def _store_rollout(job: RolloutJob, files: Mapping[str, bytes], rrd: bytes) -> None:
+def _store_rollout(job: RolloutJob, files: dict[str, bytes], rrd: bytes) -> None:
     """Write a rollout that ran elsewhere where a local worker would have written it."""
-    import shutil
+    from libero_data.record.shard import unpack_tree
 
-    from libero_data.record.shard import fsync_tree
-
-    shard = Path(job.shard_dir)
-    tmp = shard.with_name(f"{shard.name}.tmp-{os.getpid()}")
-    shutil.rmtree(tmp, ignore_errors=True)
-    for rel, data in files.items():
-        (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
-        (tmp / rel).write_bytes(data)
-    fsync_tree(tmp)
-    if shard.exists():
-        shutil.rmtree(shard)
-    tmp.rename(shard)
+    unpack_tree(files, Path(job.shard_dir))
     rrd_path = Path(job.rrd_path)
     rrd_path.parent.mkdir(parents=True, exist_ok=True)
     tmp_rrd = rrd_path.with_name(rrd_path.name + ".tmp")
     tmp_rrd.write_bytes(rrd)
     tmp_rrd.replace(rrd_path)
-
-
-EXECUTORS = ("local", "ray")
 
 
 class Evaluator:
@@ -350,8 +337,11 @@ class Evaluator:
     ) -> None:
         if workers < 0:
             raise ValueError(f"workers must be >= 0, got {workers}")
-        if executor not in EXECUTORS:
-            raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+        from libero_data.pipeline.ray_runtime import executor_problem
+
+        problem = executor_problem(executor, ray_address)
+        if problem is not None:
+            raise ValueError(problem[1])
         self.workers = workers
         self.work_dir = Path(work_dir)
         self.executor = executor
@@ -387,27 +377,9 @@ class Evaluator:
 
     def _ray_actors(self) -> list[Any]:
         if not self._actors:
-            try:
-                import ray
-            except ImportError as exc:
-                raise ValueError(
-                    "--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)"
-                ) from exc
-            if not ray.is_initialized():
-                env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
-                if os.environ.get("MUJOCO_GL"):
-                    env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
-                options: dict[str, Any] = {
-                    "include_dashboard": False,
-                    "log_to_driver": False,
-                    "logging_level": logging.WARNING,
-                    "runtime_env": {"env_vars": env_vars},
-                }
-                if self.ray_address:
-                    ray.init(address=self.ray_address, **options)
-                else:
-                    ray.init(num_cpus=max(self.workers, 1), **options)
-                self._ray_started = True
+            from libero_data.pipeline.ray_runtime import start_ray
+
+            ray, self._ray_started = start_ray(self.workers, self.ray_address)
             actor = ray.remote(num_cpus=1)(RayRollouts)
             self._actors = [actor.remote() for _ in range(max(self.workers, 1))]
         return self._actors

@@ -269,10 +269,11 @@ def generate_cmd(
     from libero_data.pipeline.generate import generate, resolve_request
 
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
-    if executor not in ("local", "ray"):
-        raise typer.BadParameter(f"{executor!r}; choose local or ray", param_hint="--executor")
-    if ray_address and executor != "ray":
-        raise typer.BadParameter("--ray-address needs --executor ray", param_hint="--ray-address")
+    from libero_data.pipeline.ray_runtime import executor_problem
+
+    problem = executor_problem(executor, ray_address)
+    if problem is not None:
+        raise typer.BadParameter(problem[1], param_hint=problem[0])
     task_refs = [part for item in (tasks or []) for part in item.split(",") if part]
     if procedural is not None and variants_of is not None:
         raise typer.BadParameter("choose --procedural or --variants-of, not both")

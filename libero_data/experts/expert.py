@@ -104,15 +104,12 @@ class Expert:
             )
 
         def graspable(obj: str) -> bool:
-            from libero_data.experts.grasp import plan_top_down
+            from libero_data.experts.grasp import has_top_down_grasp
 
             lo, hi = scene.aabb(obj)
             if hi[2] - lo[2] < 0.03 and max(hi[:2] - lo[:2]) > 0.12:
                 return False  # flat and wide (a plate): slide it instead
-            return bool(
-                plan_top_down(scene, obj, yaw_reference=np.pi / 2, limit=1)
-                or plan_top_down(scene, obj, yaw_reference=np.pi / 2, pad_tolerance=0.008, limit=1)
-            )
+            return has_top_down_grasp(scene, obj)
 
         return plan(problem, joint_kind=joint_kind, is_open=is_open, graspable=graspable)
 

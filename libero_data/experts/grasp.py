@@ -224,6 +224,14 @@ def plan_top_down(
     return candidates
 
 
+def has_top_down_grasp(scene: SceneView, name: str) -> bool:
+    """Whether any top-down grasp fits ``name``, with the strict or the loose pad rule."""
+    return bool(
+        plan_top_down(scene, name, yaw_reference=0.0, limit=1)
+        or plan_top_down(scene, name, yaw_reference=0.0, pad_tolerance=0.008, limit=1)
+    )
+
+
 def _sorted_by_v(points: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
     """Coordinates along ``u``, across (``v``) and heights of ``points``, sorted by ``v``."""
     du, dv = points[:, :2] @ u, points[:, :2] @ v

@@ -360,9 +360,6 @@ def _check_out_dir(out: Path, request: GenerateRequest) -> None:
         )
 
 
-EXECUTORS = ("local", "ray")
-
-
 def generate(
     request: GenerateRequest,
     out: str | Path,
@@ -381,8 +378,11 @@ def generate(
     here with ``workers`` CPUs). Either way the driver writes every file, so the cluster
     needs no shared storage, and the same request gives the same dataset.
     """
-    if executor not in EXECUTORS:
-        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+    from libero_data.pipeline.ray_runtime import executor_problem
+
+    problem = executor_problem(executor, ray_address)
+    if problem is not None:
+        raise ValueError(problem[1])
     from libero_data.pipeline.publish import recover
 
     out = Path(out).resolve()
@@ -500,59 +500,28 @@ def generate(
 def _ray_job(
     request_json: dict[str, Any], task_index: int, position: int, k: int, width: int
 ) -> dict[str, Any]:
-    """One episode on a Ray worker: searched and rendered in a scratch folder, returned as bytes."""
+    """One episode on a Ray worker, searched and rendered in a scratch folder of its machine;
+    returns the search record and the shard's files for the driver to write."""
     import shutil
     import tempfile
+
+    from libero_data.record.shard import pack_tree
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     scratch = Path(tempfile.mkdtemp(prefix="libero-data-ray-"))
     try:
-        ((k_done, success, attempts),) = run_job(str(scratch), request_json, task_index, position, [k], width)
-        slot = Slot(position, task_index, k_done)
-        search = _search_path(scratch, slot).read_bytes()
-        shard_dir = _shard_path(scratch, slot)
-        files = (
-            {
-                str(f.relative_to(shard_dir)): f.read_bytes()
-                for f in sorted(shard_dir.rglob("*"))
-                if f.is_file()
-            }
-            if shard_dir.is_dir()
-            else {}
+        ((k_done, _success, _attempts),) = run_job(
+            str(scratch), request_json, task_index, position, [k], width
         )
-        return {"key": slot.key, "success": success, "attempts": attempts, "search": search, "shard": files}
+        slot = Slot(position, task_index, k_done)
+        shard = _shard_path(scratch, slot)
+        return {
+            "slot": slot,
+            "record": _load_search(_search_path(scratch, slot)),
+            "shard": pack_tree(shard) if shard.is_dir() else {},
+        }
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
-
-
-def _store_ray_result(work: Path, result: dict[str, Any]) -> None:
-    """Write a Ray episode's shard and search record into ``work``, each renamed into place."""
-    from libero_data.record.shard import fsync_tree
-
-    key = result["key"]
-    if result["shard"]:
-        shard = work / "shards" / key
-        tmp = shard.with_name(f"{shard.name}.tmp-{os.getpid()}")
-        for rel, data in result["shard"].items():
-            target = tmp / rel
-            target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_bytes(data)
-        fsync_tree(tmp)
-        if shard.exists():
-            import shutil
-
-            shutil.rmtree(tmp)
-        else:
-            tmp.rename(shard)
-    # The search record last: its presence is what marks the episode as done.
-    search = work / "search" / f"{key}.npz"
-    search.parent.mkdir(parents=True, exist_ok=True)
-    tmp_search = search.with_name(search.name + ".tmp.npz")
-    with tmp_search.open("wb") as f:
-        f.write(result["search"])
-        f.flush()
-        os.fsync(f.fileno())
-    tmp_search.replace(search)
 
 
 def _run_on_ray(
@@ -564,26 +533,10 @@ def _run_on_ray(
     address: str | None,
 ) -> Iterator[tuple[str, bool, int]]:
     """Run every unfinished episode as a Ray task; yields (key, success, attempts) as they land."""
-    try:
-        import ray
-    except ImportError as exc:
-        raise ValueError("--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)") from exc
+    from libero_data.pipeline.ray_runtime import start_ray
+    from libero_data.record.shard import unpack_tree
 
-    started_here = not ray.is_initialized()
-    if started_here:
-        env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
-        if os.environ.get("MUJOCO_GL"):
-            env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
-        options: dict[str, Any] = {
-            "include_dashboard": False,
-            "log_to_driver": False,
-            "logging_level": logging.WARNING,
-            "runtime_env": {"env_vars": env_vars},
-        }
-        if address:
-            ray.init(address=address, **options)
-        else:
-            ray.init(num_cpus=workers, **options)
+    ray, started_here = start_ray(workers, address)
     try:
         remote = ray.remote(num_cpus=1, max_retries=2)(_ray_job)
         pending = [
@@ -594,8 +547,12 @@ def _run_on_ray(
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             result = ray.get(done[0])
-            _store_ray_result(work, result)
-            yield result["key"], bool(result["success"]), int(result["attempts"])
+            slot, record = result["slot"], result["record"]
+            if result["shard"]:
+                unpack_tree(result["shard"], _shard_path(work, slot))
+            # The search record last: its presence is what marks the episode as done.
+            _save_search(_search_path(work, slot), record)
+            yield slot.key, bool(record["success"]), int(record["attempts"])
     finally:
         if started_here:
             ray.shutdown()

@@ -142,6 +142,26 @@ def quiet_datasets() -> Iterator[None]:
             enable_progress_bars()
 
 
+def pack_tree(root: Path) -> dict[str, bytes]:
+    """Every file under ``root`` as {relative path: bytes} (to send a finished folder elsewhere)."""
+    return {str(f.relative_to(root)): f.read_bytes() for f in sorted(root.rglob("*")) if f.is_file()}
+
+
+def unpack_tree(files: dict[str, bytes], dest: Path) -> Path:
+    """Write :func:`pack_tree`'s files as folder ``dest``, which appears (or is replaced) atomically."""
+    dest = Path(dest)
+    tmp = dest.with_name(f"{dest.name}.tmp-{os.getpid()}")
+    shutil.rmtree(tmp, ignore_errors=True)
+    for rel, data in files.items():
+        (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp / rel).write_bytes(data)
+    fsync_tree(tmp)
+    if dest.exists():
+        shutil.rmtree(dest)
+    tmp.rename(dest)
+    return dest
+
+
 def fsync_tree(root: Path) -> None:
     """Flush a freshly written folder to disk before it is renamed into place."""
     for path in sorted(root.rglob("*")):

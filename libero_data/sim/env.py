@@ -236,13 +236,11 @@ class LiberoEnv:
         return self.success()
 
     def _physics_step(self, action: np.ndarray) -> None:
-        from robosuite.environments.base import MujocoEnv
-
         # robosuite's own step, without LIBERO's wrapper around it (which evaluates the goal
         # a second time for its ``done`` flag; the reward is switched off by _trim_step).
         self._stepping = True
         try:
-            MujocoEnv.step(self._env, action)
+            self._robosuite_step(self._env, action)
         finally:
             self._stepping = False
 
@@ -258,6 +256,9 @@ class LiberoEnv:
         Both are per instance (robosuite and LIBERO themselves are left untouched), and the
         states a step produces are bit for bit the same (tested).
         """
+        from robosuite.environments.base import MujocoEnv
+
+        self._robosuite_step = MujocoEnv.step
         env = self._env
         env.reward = _zero_reward
         for robot in env.robots:

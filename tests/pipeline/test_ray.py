@@ -4,20 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pyarrow.parquet as pq
 import pytest
 
 from libero_data.pipeline.validate import validate
-from tests.pipeline.conftest import TINY, run_cli
+from tests.pipeline.conftest import TINY, data_table, run_cli
 
 pytestmark = pytest.mark.sim
-
-
-def _table(root: Path):
-    import pyarrow as pa
-
-    tables = [pq.read_table(p) for p in sorted((root / "data").glob("*/*.parquet"))]
-    return pa.concat_tables(tables).sort_by("index")
 
 
 def test_ray_executor_writes_the_same_dataset_as_local_workers(tiny_dataset: Path, tmp_path: Path) -> None:
@@ -26,7 +18,7 @@ def test_ray_executor_writes_the_same_dataset_as_local_workers(tiny_dataset: Pat
     assert result.returncode == 0, result.stderr[-3000:]
     assert not validate(out).issues
     # Same seed, same request: the same frames, states and actions, episode metadata and videos.
-    assert _table(out).equals(_table(tiny_dataset))
+    assert data_table(out).equals(data_table(tiny_dataset))
     ours = (out / "meta" / "libero_episodes.jsonl").read_text()
     assert ours == (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text()
     videos = sorted(p.relative_to(out) for p in (out / "videos").rglob("*.mp4"))

@@ -10,20 +10,12 @@ import sys
 import time
 from pathlib import Path
 
-import pyarrow.parquet as pq
 import pytest
 
 from libero_data.pipeline.validate import validate
-from tests.pipeline.conftest import TINY, run_cli
+from tests.pipeline.conftest import TINY, data_table, run_cli
 
 pytestmark = pytest.mark.sim
-
-
-def _table(root: Path):
-    import pyarrow as pa
-
-    tables = [pq.read_table(p) for p in sorted((root / "data").glob("*/*.parquet"))]
-    return pa.concat_tables(tables).sort_by("index")
 
 
 def test_sigkill_then_rerun_completes_the_same_dataset(tiny_dataset: Path, tmp_path: Path) -> None:
@@ -65,7 +57,7 @@ def test_sigkill_then_rerun_completes_the_same_dataset(tiny_dataset: Path, tmp_p
     assert result.returncode == 0, result.stderr[-2000:]
     assert not validate(out, resimulate=1).issues
     # Nothing lost, nothing duplicated: exactly the uninterrupted run's content.
-    assert _table(out).equals(_table(tiny_dataset))
+    assert data_table(out).equals(data_table(tiny_dataset))
     ours = (out / "meta" / "libero_episodes.jsonl").read_text()
     assert ours == (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text()
     assert json.loads((out / "meta" / "info.json").read_text())["total_episodes"] == 2

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from libero_data.experts.geometry import yaw_of_closing
-from libero_data.experts.grasp import plan_top_down
+from libero_data.experts.grasp import has_top_down_grasp, plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import (
     SKILLS,
@@ -40,7 +40,7 @@ class Pick(Skill):
         # moved) and spots within 2 cm of a missed one are skipped.
         missed: list[np.ndarray] = []
         yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12)
-        if not insertion and not _any_grasp(ctx, obj):
+        if not insertion and not has_top_down_grasp(scene, obj):
             # Boxed in (a pudding pressed against a bowl): slide it a few cm into the open.
             yield from _nudge_into_the_open(ctx, obj)
         for attempt in range(3):
@@ -102,14 +102,6 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         yield from lift(ctx, scene.eef_pos()[2] + 0.05)
         return False
     return True
-
-
-def _any_grasp(ctx: Context, obj: str) -> bool:
-    scene, yaw = ctx.scene, yaw_of_closing(ctx.scene.eef_mat())
-    return bool(
-        plan_top_down(scene, obj, yaw_reference=yaw, limit=1)
-        or plan_top_down(scene, obj, yaw_reference=yaw, pad_tolerance=0.008, limit=1)
-    )
 
 
 def _nudge_into_the_open(ctx: Context, obj: str, distance: float = 0.05) -> Actions:

@@ -1,0 +1,47 @@
+"""Running work on Ray: the executor choice and starting (or joining) Ray, shared by
+``libero-data generate`` and ``libero-bench run``. Ray is imported only when used."""
+
+from __future__ import annotations
+
+import logging
+import os
+from typing import Any
+
+EXECUTORS = ("local", "ray")
+
+
+def executor_problem(executor: str, ray_address: str | None) -> tuple[str, str] | None:
+    """(option, sentence) when ``--executor``/``--ray-address`` do not go together, else None."""
+    if executor not in EXECUTORS:
+        return "--executor", f"{executor!r}; choose {' or '.join(EXECUTORS)}"
+    if ray_address and executor != "ray":
+        return "--ray-address", "--ray-address needs --executor ray"
+    return None
+
+
+def start_ray(workers: int, address: str | None) -> tuple[Any, bool]:
+    """The ``ray`` module, initialised; and whether this call started it (then shut it down).
+
+    Joins the cluster at ``address``, or starts a Ray instance here with ``workers`` CPUs.
+    Workers get one OpenMP thread and this process's OpenGL backend.
+    """
+    try:
+        import ray
+    except ImportError as exc:
+        raise ValueError("--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)") from exc
+    if ray.is_initialized():
+        return ray, False
+    env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+    if os.environ.get("MUJOCO_GL"):
+        env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
+    options: dict[str, Any] = {
+        "include_dashboard": False,
+        "log_to_driver": False,
+        "logging_level": logging.WARNING,
+        "runtime_env": {"env_vars": env_vars},
+    }
+    if address:
+        ray.init(address=address, **options)
+    else:
+        ray.init(num_cpus=max(workers, 1), **options)
+    return ray, True
