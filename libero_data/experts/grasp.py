@@ -35,6 +35,7 @@ class Grasp:
     yaw: float
     width: float  # object extent between the fingers
     score: float
+    opening: float = MAX_OPENING  # finger opening on the way down (less: a pre-shaped hand)
 
 
 def plan_top_down(
@@ -55,6 +56,7 @@ def plan_top_down(
     exclude_bodies: tuple[int, ...] = (),
     pad_tolerance: float = 0.004,
     limit: int | None = None,
+    opening: float = MAX_OPENING,
 ) -> list[Grasp]:
     """Feasible top-down grasps of ``name``, best first (empty when none fits).
 
@@ -64,6 +66,9 @@ def plan_top_down(
     is how far (m) the object may stand out beyond the pads' contact higher up the fingers
     (flared walls): small is safe, larger admits thin flared rims. ``limit`` stops the
     search after that many feasible grasps (``limit=1`` answers "is there any?" cheaply).
+    ``opening`` below the full opening plans for a pre-shaped hand that comes down with its
+    fingers only that far apart: then one finger can go inside a bowl and pinch its wall,
+    where a fully open hand would reach the far wall.
     """
     stats = {} if stats is None else stats
     depths = (depth,) if isinstance(depth, float) else tuple(depth)
@@ -101,7 +106,7 @@ def plan_top_down(
         for c in centres:
             cu, cv = float(c @ u), float(c @ v)
             du_o, dv_o, z_o = _near(o_u, o_v, o_z, cv, FINGER_HALF_WIDTH)
-            in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < MAX_OPENING / 2)
+            in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < opening / 2)
             if in_line.sum() < 3:
                 reject("empty")
                 continue
@@ -123,7 +128,7 @@ def plan_top_down(
                     continue
                 lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
                 width = hi_u - lo_u
-                if width > MAX_OPENING - 0.01 or width < 0.004:
+                if width > opening - 0.01 or width < 0.004:
                     reject("width")
                     continue
                 # The pads must make the first contact on both sides: the outermost points
@@ -168,7 +173,7 @@ def plan_top_down(
                 # The fingers come down outside [lo_u, hi_u]: nothing may be there.
                 rel_u = du_l - gu
                 rel_v = np.abs(dv_l - cv)
-                inner = MAX_OPENING / 2
+                inner = opening / 2
                 in_fingers = (
                     (np.abs(rel_u) > width / 2 + 0.002)
                     & (np.abs(rel_u) < inner + FINGER_THICKNESS)
@@ -216,6 +221,7 @@ def plan_top_down(
                         yaw=yaw_w,
                         width=width,
                         score=score,
+                        opening=opening,
                     )
                 )
                 if limit is not None and len(candidates) >= limit:

@@ -19,6 +19,11 @@ POS_SCALE = 0.05
 ROT_SCALE = 0.5
 CONTROL_DT = 0.05
 OPEN, CLOSE = -1.0, 1.0
+HOLD = 0.0  # keeps the gripper's current set-point (robosuite integrates the sign of the command)
+#: Finger opening lost per control step of closing (robosuite's Panda gripper: 0.01 of its
+#: [-1, 1] range per substep, 25 substeps per step, over an 8 cm stroke).
+CLOSING_PER_STEP = 0.01
+FULL_OPENING = 0.08
 
 Actions = Generator[np.ndarray, None, bool]
 
@@ -103,3 +108,13 @@ class Motion:
         """Close (+1) or open (-1) the gripper while holding the pose."""
         self.gripper = value
         return (yield from self.hold(steps, mat))
+
+    def preshape(self, opening: float, mat: np.ndarray | None = None) -> Actions:
+        """Close a fully open gripper to about ``opening`` (1-cm steps) and keep it there.
+
+        The following motions send the gripper command 0 (hold) until the next open or close.
+        """
+        yield from self.set_gripper(OPEN, steps=2, mat=mat)  # its set-point is fully open again
+        steps = max(int(round((FULL_OPENING - opening) / CLOSING_PER_STEP)), 0)
+        yield from self.set_gripper(CLOSE, steps=steps, mat=mat)
+        return (yield from self.set_gripper(HOLD, steps=3, mat=mat))

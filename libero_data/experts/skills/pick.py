@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from libero_data.experts.geometry import yaw_of_closing
-from libero_data.experts.grasp import has_top_down_grasp, plan_top_down
+from libero_data.experts.grasp import MAX_OPENING, has_top_down_grasp, plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import (
     SKILLS,
@@ -45,11 +45,7 @@ class Pick(Skill):
             yield from _nudge_into_the_open(ctx, obj)
         for attempt in range(3):
             yield from wait_until_still(ctx, obj)
-            grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()))
-            if not grasps:  # thin flared rims (some bowls) need a looser contact rule
-                grasps = plan_top_down(
-                    scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), pad_tolerance=0.008
-                )
+            grasps = _plan(scene, obj)
             grasps = _for_side_insertion(ctx, obj, grasps) if insertion else _within_reach(ctx, grasps)
             grasps = [g for g in grasps if all(np.linalg.norm(g.pos[:2] - m[:2]) >= 0.02 for m in missed)]
             if not grasps:
@@ -75,6 +71,31 @@ class Pick(Skill):
         return True
 
 
+#: A best open-hand grasp scoring below this is poor (far off-centre, shallow, or closing
+#: along a rim instead of across it): then pre-shaped grasps are planned as well.
+POOR_GRASP = 0.0
+#: Finger opening of a pre-shaped hand (m): room for a bowl's wall and 1-2 cm on each side.
+PRESHAPED_OPENING = 0.04
+
+
+def _plan(scene, obj: str) -> list:
+    """Top-down grasps of ``obj``, best first: open hand, then looser and pre-shaped rules.
+
+    A light bowl with thin walls (LIBERO's white bowl: 2 g, 8 cm wide, 2-mm walls) has no
+    good open-hand grasp: the fully open fingers cannot go inside it without reaching the far
+    wall, and a pinch along its rim squeezes it out of the hand. A hand pre-shaped to 4 cm
+    can put one finger inside and pinch the wall across.
+    """
+    yaw_reference = yaw_of_closing(scene.eef_mat())
+    grasps = plan_top_down(scene, obj, yaw_reference=yaw_reference)
+    if not grasps:  # thin flared rims (some bowls) need a looser contact rule
+        grasps = plan_top_down(scene, obj, yaw_reference=yaw_reference, pad_tolerance=0.008)
+    if not grasps or grasps[0].score < POOR_GRASP:
+        preshaped = plan_top_down(scene, obj, yaw_reference=yaw_reference, opening=PRESHAPED_OPENING)
+        grasps = sorted(grasps + preshaped, key=lambda g: -g.score)
+    return grasps
+
+
 def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     """One grasp: approach from above, close, lift a little; False (gripper open) if it failed."""
     scene = ctx.scene
@@ -86,6 +107,8 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     if here[2] < top + 0.06:
         yield from lift(ctx, top + 0.08)
     yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
+    if grasp.opening < MAX_OPENING:
+        yield from ctx.motion.preshape(grasp.opening, mat=grasp.mat)
     reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.12 + ctx.jitter(0.03), tol=0.004)
     if not reached:
         # Blocked on the way down (usually by the object itself): one more slow push.
