@@ -111,7 +111,12 @@ class Expert:
                 return False  # flat and wide (a plate): slide it instead
             return has_top_down_grasp(scene, obj)
 
-        return plan(problem, joint_kind=joint_kind, is_open=is_open, graspable=graspable)
+        def covered(drawer: str, obj: str) -> bool:
+            from libero_data.experts.skills.drawer import covered_by_opening
+
+            return not is_open(drawer) and covered_by_opening(scene, drawer, obj)
+
+        return plan(problem, joint_kind=joint_kind, is_open=is_open, graspable=graspable, covered=covered)
 
     def run(self, init_state: np.ndarray | None, *, reset_seed: int = 0, seed: int = 0) -> Episode:
         """One episode from ``init_state`` (fixtures placed from ``reset_seed``), styled by ``seed``."""

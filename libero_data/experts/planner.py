@@ -7,7 +7,9 @@ Rules, in the order they are applied:
 - ``Close(R)`` after every ``In(x, R)`` into it; other ``Open``/``Close``/``Turnon``/
   ``Turnoff`` atoms come first, in written order (a stove turned on before a pot goes on it);
 - ``On(x, y)``/``In(x, y)`` where ``y`` itself must be moved: move ``y`` first;
-- ``On(x, R)`` of a flat object that cannot be grasped from above: push it.
+- ``On(x, R)`` of a flat object that cannot be grasped from above: push it;
+- an object that is moved later and that opening a drawer would cover (a bowl in front of
+  the cabinet): set it aside on the table before the drawer opens.
 """
 
 from __future__ import annotations
@@ -36,12 +38,14 @@ def plan(
     joint_kind: Callable[[str], str | None] = lambda name: None,
     is_open: Callable[[str], bool] = lambda name: True,
     graspable: Callable[[str], bool] = lambda name: True,
+    covered: Callable[[str, str], bool] = lambda drawer, obj: False,
 ) -> list[Step]:
     """Order the goal's atoms into skills.
 
     ``joint_kind(name)`` tells "slide" (drawers), "hinge" (doors, knobs) or None;
     ``is_open(region)`` whether a container is open now; ``graspable(obj)`` whether a
-    top-down grasp fits the object.
+    top-down grasp fits the object; ``covered(drawer, obj)`` whether opening the drawer would
+    put it over the object.
     """
 
     def articulation(atom: Atom) -> Step:
@@ -92,7 +96,8 @@ def plan(
             break
 
     steps: list[Step] = [articulation(a) for a in first]
-    opened: set[str] = set()
+    # A drawer the goal opens anyway is open by the time anything goes in.
+    opened: set[str] = {a.args[0] for a in first if a.predicate == "Open"}
     for atom in ordered:
         obj, target = atom.args
         door = door_of(target) if atom.predicate == "In" else None
@@ -108,4 +113,20 @@ def plan(
         if door is not None and door in closing_after:
             steps.append(articulation(closing_after.pop(door)))
     steps += [articulation(a) for a in closing_after.values()]
-    return steps
+    return _clear_the_way(steps, covered)
+
+
+def _clear_the_way(steps: list[Step], covered: Callable[[str, str], bool]) -> list[Step]:
+    """Before each drawer opens, set aside what it would cover and what is picked later."""
+    out: list[Step] = []
+    moved: set[str] = set()
+    for i, step in enumerate(steps):
+        if step.skill == "open_drawer":
+            drawer = step.args[0]
+            later = [s.args[0] for s in steps[i + 1 :] if s.skill == "pick"]
+            for obj in dict.fromkeys(later):
+                if obj not in moved and covered(drawer, obj):
+                    out += [Step("pick", (obj,), None), Step("set_aside", (obj, drawer), None)]
+                    moved.add(obj)
+        out.append(step)
+    return out

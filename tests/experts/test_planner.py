@@ -71,3 +71,31 @@ def test_written_order_of_switches_is_kept() -> None:
     kinds = dict.fromkeys(["white_cabinet_1_bottom_region", "white_cabinet_1_top_region"], "slide")
     out = [str(s) for s in plan(problem, joint_kind=kinds.get)]
     assert out == ["close_drawer(white_cabinet_1_bottom_region)", "open_drawer(white_cabinet_1_top_region)"]
+
+
+def test_a_drawer_the_goal_opens_is_opened_once() -> None:
+    # libero_90/8: open the top drawer of the cabinet and put the bowl in it
+    drawer = "wooden_cabinet_1_top_region"
+    out = steps("libero_90/8", joint_kind={drawer: "slide"}.get, is_open=lambda r: False)
+    assert out == [
+        f"open_drawer({drawer})",
+        f"pick(akita_black_bowl_1, {drawer})",
+        f"place_in(akita_black_bowl_1, {drawer})",
+    ]
+
+
+def test_what_an_opening_drawer_would_cover_is_set_aside_first() -> None:
+    drawer = "wooden_cabinet_1_top_region"
+    out = steps(
+        "libero_90/8",
+        joint_kind={drawer: "slide"}.get,
+        is_open=lambda r: False,
+        covered=lambda d, o: (d, o) == (drawer, "akita_black_bowl_1"),
+    )
+    assert out == [
+        "pick(akita_black_bowl_1)",
+        f"set_aside(akita_black_bowl_1, {drawer})",
+        f"open_drawer({drawer})",
+        f"pick(akita_black_bowl_1, {drawer})",
+        f"place_in(akita_black_bowl_1, {drawer})",
+    ]

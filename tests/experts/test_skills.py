@@ -22,6 +22,9 @@ CASES = {
     "libero_90/42": ["pick", "place_in"],  # a pan by its handle, sideways under a shelf
     "libero_90/32": ["pick", "place_in"],  # a tall bottle laid down in a shallow drawer
     "libero_90/13": ["pick", "place_on"],  # a bowl at the far edge of the arm's reach
+    "libero_90/36": ["pick", "place_on"],  # a 2 g thin-walled bowl: pre-shaped hand pinches its wall
+    # the bowl stands where the drawer opens: set aside first
+    "libero_90/8": ["pick", "set_aside", "open_drawer", "pick", "place_in"],
 }
 
 
@@ -37,6 +40,7 @@ def test_every_skill_is_registered() -> None:
         "turn_on",
         "turn_off",
         "push",
+        "set_aside",
     }
 
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from libero_data.bddl import Atom
-from libero_data.experts.scene import Joint
+from libero_data.experts.scene import Joint, SceneView
 from libero_data.experts.skills.base import Context, SkillFailed
 
 
@@ -22,7 +22,10 @@ class Part:
 
     def opened_by(self, ctx: Context) -> float:
         """How far the part is open now, in joint units (positive = more open)."""
-        return self.open_sign * (ctx.scene.joint(self.joint.name).qpos - self.closed_qpos)
+        return self.opened_in(ctx.scene)
+
+    def opened_in(self, scene: SceneView) -> float:
+        return self.open_sign * (scene.joint(self.joint.name).qpos - self.closed_qpos)
 
     @property
     def closed_qpos(self) -> float:
@@ -32,16 +35,21 @@ class Part:
 
 def part_of(ctx: Context, name: str) -> Part:
     """The articulated part a goal atom names (``wooden_cabinet_1_top_region``, ``microwave_1``)."""
-    raw = ctx.scene.raw
+    return part_in(ctx.scene, name)
+
+
+def part_in(scene: SceneView, name: str) -> Part:
+    """:func:`part_of` for a scene (when planning, before any skill runs)."""
+    raw = scene.raw
     if name in raw.object_sites_dict and getattr(raw.object_sites_dict[name], "joints", None):
         joint_names = list(raw.object_sites_dict[name].joints)
         fixture = raw.object_sites_dict[name].parent_name
     else:
         fixture = name
-        joint_names = [j.name for j in ctx.scene.joints_of(name)]
+        joint_names = [j.name for j in scene.joints_of(name)]
     if not joint_names:
         raise SkillFailed(f"{name} has no joint to open or close")
-    joint = ctx.scene.joint(joint_names[0])
+    joint = scene.joint(joint_names[0])
     props = raw.get_object(fixture).object_properties.get("articulation", {})
     open_range = props.get("default_open_ranges") or []
     lo, hi = joint.range

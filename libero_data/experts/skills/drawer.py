@@ -7,8 +7,39 @@ import numpy as np
 from libero_data.experts.geometry import approach_frame, rotation_error
 from libero_data.experts.grasp import hand_collisions
 from libero_data.experts.motion import CLOSE, OPEN, Actions
-from libero_data.experts.skills.articulation import Part, holds, part_of
+from libero_data.experts.scene import SceneView
+from libero_data.experts.skills.articulation import Part, holds, part_in, part_of
 from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, go_to_pose, lift
+
+
+def sweep(scene: SceneView, region: str) -> tuple[np.ndarray, np.ndarray]:
+    """The box (lo, hi corners) a drawer passes through from where it is to fully open."""
+    part = part_in(scene, region)
+    pts = scene.points_of_bodies(scene.subtree(scene.body_id(part.joint.body)))
+    out = part.joint.axis * part.open_sign
+    out = out / np.linalg.norm(out)
+    full = abs(part.joint.range[1] - part.joint.range[0])
+    moved = pts + out * max(full - part.opened_in(scene), 0.0)
+    both = np.concatenate([pts, moved])
+    return both.min(0), both.max(0)
+
+
+def covered_by_opening(scene: SceneView, region: str, obj: str, margin: float = 0.04) -> bool:
+    """Whether opening the drawer would put it over (or against) ``obj``, within ``margin``.
+
+    An object under an open drawer has no top-down grasp left (the hand and wrist hit the
+    drawer), so it has to be moved before the drawer opens. Objects inside the drawer now
+    travel with it and do not count.
+    """
+    lo, hi = sweep(scene, region)
+    olo, ohi = scene.aabb(obj)
+    part = part_in(scene, region)
+    now = scene.points_of_bodies(scene.subtree(scene.body_id(part.joint.body)))
+    centre = (olo + ohi) / 2
+    if np.all(centre[:2] > now.min(0)[:2]) and np.all(centre[:2] < now.max(0)[:2]) and centre[2] > now.min(0)[2]:
+        return False
+    overlap_xy = bool(np.all(olo[:2] < hi[:2] + margin) and np.all(ohi[:2] > lo[:2] - margin))
+    return overlap_xy and float(olo[2]) < float(hi[2])
 
 
 def _handle(ctx: Context, part: Part) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

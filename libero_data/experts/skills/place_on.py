@@ -62,21 +62,7 @@ def _free_spot(ctx: Context, site, mat: np.ndarray, *, shared: bool = False) -> 
     for fx in np.linspace(-1, 1, 7):
         for fy in np.linspace(-1, 1, 7):
             xy = site.pos[:2] + np.array([fx, fy]) * room
-            rel = np.abs(pts[:, :2] - (xy + mid)) / half
-            inside = rel.max(axis=1) < 1.05
-            base = rel.max(axis=1) < 0.5
-            floor = float(pts[base, 2].max()) if base.any() else float(site.pos[2])
-            blocked = int((inside & (pts[:, 2] > floor + 0.01)).sum())
-            # Most of the outline must stand on that surface, or the object tips over its edge.
-            level = pts[np.abs(pts[:, 2] - floor) < 0.006, :2]
-            probes = (
-                xy + mid + np.stack(np.meshgrid(*(np.linspace(-0.9, 0.9, 5),) * 2), -1).reshape(-1, 2) * half
-            )
-            supported = (
-                np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes])
-                if len(level)
-                else 0.0
-            )
+            blocked, supported = spot_cost(pts, xy + mid, half, default_floor=float(site.pos[2]))
             if supported < 0.8:
                 blocked += 10_000
             if shared:
@@ -87,6 +73,39 @@ def _free_spot(ctx: Context, site, mat: np.ndarray, *, shared: bool = False) -> 
             if best_key is None or key < best_key:
                 best, best_key = xy, key
     return best
+
+
+def spot_cost(
+    pts: np.ndarray,
+    centre: np.ndarray,
+    half: np.ndarray,
+    *,
+    margin: float = 1.05,
+    default_floor: float | None = None,
+) -> tuple[int, float]:
+    """How many obstacle points stand in an outline box, and how much of it rests level.
+
+    The box is ``centre`` ± ``half`` (grown by ``margin``); the floor is the highest point
+    under its middle. Returns the points more than 1 cm above that floor inside the box, and
+    the share of 25 probes across the outline that have floor-level support under them (an
+    object mostly off its support tips over the edge).
+    """
+    rel = np.abs(pts[:, :2] - centre) / half
+    inside = rel.max(axis=1) < margin
+    base = rel.max(axis=1) < 0.5
+    if base.any():
+        floor = float(pts[base, 2].max())
+    elif default_floor is not None:
+        floor = default_floor
+    else:
+        return 0, 0.0
+    blocked = int((inside & (pts[:, 2] > floor + 0.01)).sum())
+    level = pts[np.abs(pts[:, 2] - floor) < 0.006, :2]
+    probes = centre + np.stack(np.meshgrid(*(np.linspace(-0.9, 0.9, 5),) * 2), -1).reshape(-1, 2) * half
+    supported = (
+        float(np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes])) if len(level) else 0.0
+    )
+    return blocked, supported
 
 
 def _support(ctx: Context, xy: np.ndarray, radius: float, exclude: tuple[str, ...]) -> float:
