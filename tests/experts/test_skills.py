@@ -23,6 +23,7 @@ CASES = {
     "libero_90/32": ["pick", "place_in"],  # a tall bottle laid down in a shallow drawer
     "libero_90/13": ["pick", "place_on"],  # a bowl at the far edge of the arm's reach
     "libero_90/36": ["pick", "place_on"],  # a 2 g thin-walled bowl: pre-shaped hand pinches its wall
+    "libero_90/62": ["pick", "place_in"],  # a bottle close to the robot: the hand leans back
     # the bowl stands where the drawer opens: set aside first
     "libero_90/8": ["pick", "set_aside", "open_drawer", "pick", "place_in"],
 }

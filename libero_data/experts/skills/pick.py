@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from libero_data.experts.geometry import yaw_of_closing
+from libero_data.experts.geometry import approach_frame, yaw_of_closing
 from libero_data.experts.grasp import MAX_OPENING, has_top_down_grasp, plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import (
@@ -99,7 +101,8 @@ def _plan(scene, obj: str) -> list:
 def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     """One grasp: approach from above, close, lift a little; False (gripper open) if it failed."""
     scene = ctx.scene
-    above = grasp.pos + np.array([0.0, 0.0, 0.08 + ctx.jitter(0.02) + 0.02])
+    grasp = _leaning_back(ctx, grasp)
+    above = grasp.pos - grasp.mat[:, 2] * (0.08 + ctx.jitter(0.02) + 0.02)
     ctx.motion.gripper = OPEN
     # Rise first when low, so the hand does not sweep through nearby objects.
     here = scene.eef_pos()
@@ -125,6 +128,34 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         yield from lift(ctx, scene.eef_pos()[2] + 0.05)
         return False
     return True
+
+
+#: Horizontal grip-to-shoulder distance (m) below which a top-down hand needs the elbow
+#: folded past its limit (measured on the low living-room table: 0.262 m is out of reach,
+#: 0.283 m works).
+TOO_CLOSE = 0.275
+#: How far the hand leans back toward the robot then (the wrist moves out, the elbow opens).
+LEAN_BACK = np.deg2rad(25.0)
+
+
+def _leaning_back(ctx: Context, grasp):
+    """The grasp, its hand tilted about the closing axis toward the robot if it is too close.
+
+    Only the tilt component across the closing axis helps; fingers closing toward the robot
+    are not tilted (they would no longer face the object's sides).
+    """
+    to_robot = ctx.scene.shoulder_pos()[:2] - grasp.pos[:2]
+    distance = float(np.linalg.norm(to_robot))
+    if distance >= TOO_CLOSE:
+        return grasp
+    closing = grasp.mat[:, 0]
+    across = np.array([*to_robot, 0.0]) / max(distance, 1e-9)
+    across = across - closing * float(across @ closing)
+    if np.linalg.norm(across) < 0.5:
+        return grasp
+    across /= np.linalg.norm(across)
+    approach = np.array([0.0, 0.0, -1.0]) * np.cos(LEAN_BACK) + across * np.sin(LEAN_BACK)
+    return replace(grasp, mat=approach_frame(approach, closing))
 
 
 def _nudge_into_the_open(ctx: Context, obj: str, distance: float = 0.05) -> Actions:
