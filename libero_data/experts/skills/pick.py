@@ -109,6 +109,19 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     top = scene.aabb(obj)[1][2]
     if here[2] < top + 0.06:
         yield from lift(ctx, top + 0.08)
+    # Travel above whatever lies between here and there (a basket just dropped into), or
+    # the finger tips catch its rim and drag it along. What stands around the object itself
+    # (a shelf over it) is the grasp planner's business: the path stops 8 cm short of it.
+    start = scene.eef_pos()
+    gap = above[:2] - start[:2]
+    if np.linalg.norm(gap) > 0.08:
+        short_of = above[:2] - gap / np.linalg.norm(gap) * 0.08
+        clear = ctx.clear_height(start, short_of, (), radius=0.06) + 0.05
+    else:
+        clear = -np.inf
+    if clear > max(start[2], above[2]):
+        yield from lift(ctx, clear)
+        yield from ctx.motion.move(np.array([above[0], above[1], clear]), grasp.mat, tol=0.015, max_steps=150)
     yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
     if grasp.opening < MAX_OPENING:
         yield from ctx.motion.preshape(grasp.opening, mat=grasp.mat)
