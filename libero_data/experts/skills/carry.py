@@ -71,6 +71,19 @@ def carry_to(
         yield from lift(ctx, travel, speed=0.3 if ctx.notes.get("grasp_width", 1.0) >= 0.012 else 0.15)
     # A thin rim between the fingers slips under fast turns and stops: carry it gently.
     gentle = 0.18 if ctx.notes.get("grasp_width", 1.0) < 0.012 else None
+    # When only the start of the way needs the height (a bowl carried off a cabinet top),
+    # come down as soon as the rest is clear: a far target is out of the stretched arm's
+    # reach high up, and within it lower down.
+    for f in (0.3, 0.5, 0.7):
+        partway = start[:2] + f * (eef_xy - start[:2])
+        rest = ctx.clear_height(partway, eef_xy, (ctx.held, *exclude), radius)
+        lower = max(rest + 0.04 + body_above_bottom - (mat @ rel)[2], target_z + 0.05)
+        if lower < travel - 0.05:
+            yield from ctx.motion.move(
+                np.array([partway[0], partway[1], travel]), mat, speed=gentle, tol=0.02, max_steps=100
+            )
+            travel = lower
+            break
     yield from ctx.motion.move(
         np.array([eef_xy[0], eef_xy[1], travel]), mat, speed=gentle, tol=0.012, max_steps=200
     )
