@@ -8,8 +8,9 @@ One in-process ``generate`` run (``--workers 1``) over ``--tasks`` of ``--suite`
 - **rendering**: ``LiberoEnv.render`` (MuJoCo/OpenGL, both cameras of every kept frame);
 - **frame assembly**: the rest of rendering an episode from its states (restoring each
   state, building the observation);
-- **encoding**: LeRobot's video encoding (``encode_video_frames``);
-- **writing**: the rest of writing an episode (LeRobot's per-frame PNGs, parquet, MCAP,
+- **encoding**: LeRobot's video encoding: handing frames to its streaming encoder and
+  waiting for the encoder threads to finish an episode (``StreamingVideoEncoder``);
+- **writing**: the rest of writing an episode (LeRobot's frame buffer, parquet, MCAP,
   fsync);
 - **publishing**: merging finished episodes into the dataset and writing the card;
 - **other**: wall time not in any of the above (imports, environment construction, resets).
@@ -25,6 +26,7 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import statistics
 import tempfile
 import time
 from collections import defaultdict
@@ -62,7 +64,7 @@ class Timers:
 
 
 def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: int) -> dict[str, Any]:
-    import lerobot.datasets.dataset_writer as writer
+    from lerobot.datasets.video_utils import StreamingVideoEncoder
 
     import libero_data.pipeline.generate as gen
     import libero_data.record.shard as shard
@@ -76,7 +78,8 @@ def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: 
         timers.wrap(Expert, "run", "search"),
         timers.wrap(LiberoEnv, "render", "rendering"),
         timers.wrap(shard, "render_frames", "render_frames"),
-        timers.wrap(writer, "encode_video_frames", "encoding"),
+        timers.wrap(StreamingVideoEncoder, "feed_frame", "encoding"),
+        timers.wrap(StreamingVideoEncoder, "finish_episode", "encoding"),
         timers.wrap(shard, "write_frames", "write_frames"),
         timers.wrap(gen, "_publish", "publishing"),
     ]
@@ -136,12 +139,59 @@ def wall_with_workers(
         shutil.rmtree(out.parent, ignore_errors=True)
 
 
+def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> list[float]:
+    """Resident MiB of the generating process after each of ``episodes`` episodes of one task.
+
+    ``--workers 1`` searches and renders in this process, so it is the worker here.
+    """
+    from libero_data.pipeline.generate import generate, resolve_request
+
+    request = resolve_request(suite, [str(task)], episodes_per_task=episodes, image_size=size, seed=seed)
+    out = Path(tempfile.mkdtemp(prefix="bench-generate-mem-")) / "d"
+    trace: list[float] = []
+    seen = 0
+
+    def on_progress(progress: Any) -> None:
+        nonlocal seen
+        finished = progress.done + progress.failed
+        if finished > seen:
+            seen = finished
+            trace.append(_rss_mib())
+
+    try:
+        generate(request, out, workers=1, publish_every=1e9, on_progress=on_progress)
+        return trace
+    finally:
+        shutil.rmtree(out.parent, ignore_errors=True)
+
+
+def _rss_mib() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def memory_table(trace: list[float], args: argparse.Namespace) -> str:
+    tenth = max(len(trace) // 10, 1)
+    early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
+    return (
+        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --memory-episodes "
+        f"{args.memory_episodes} --size {args.size}` (task {args.tasks[0]}, one process that searches and "
+        "renders, two cameras; resident memory sampled after each episode).\n\n"
+        f"Resident MiB over {len(trace)} episodes: first {trace[0]:.0f}, mean of the first tenth {early:.0f}, "
+        f"of the last tenth {late:.0f}, max {max(trace):.0f}; growth from the first to the last tenth "
+        f"**{late - early:+.0f} MiB**.\n"
+    )
+
+
 def table(r: dict[str, Any], one: float, two: float, args: argparse.Namespace) -> str:
     wall, split = r["wall"], r["split"]
     lines = [
         f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
-        f"--episodes {args.episodes} --size {args.size}` ({len(args.tasks)} tasks × {args.episodes} episodes, "
-        f"two {args.size}² cameras, one process; then 1 and 2 worker processes on a fresh folder).",
+        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats}` ({len(args.tasks)} tasks × "
+        f"{args.episodes} episodes, two {args.size}² cameras, one process; then 1 and 2 worker processes on a "
+        f"fresh folder; the median of {args.repeats} runs each).",
         "",
         f"Kept episodes: {r['episodes']} in {wall:.0f} s = **{r['episodes'] / wall * 60:.1f} episodes/min** on one core; "
         f"rendered frames (both cameras): {r['frames']} = **{r['frames'] / wall:.1f} frames/s per core** over the "
@@ -171,11 +221,41 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=2)
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="Runs of each measurement; medians are reported."
+    )
+    parser.add_argument(
+        "--memory-episodes",
+        type=int,
+        default=0,
+        help="Only measure the generating process's memory over this many episodes of the first task.",
+    )
     parser.add_argument("--results", type=Path, help="RESULTS.md to update")
     args = parser.parse_args()
-    r = measure_split(args.suite, args.tasks, args.episodes, args.size, args.seed)
-    one = wall_with_workers(args.suite, args.tasks, args.episodes, args.size, args.seed, 1)
-    two = wall_with_workers(args.suite, args.tasks, args.episodes, args.size, args.seed, 2)
+    if args.memory_episodes:
+        text = memory_table(
+            memory_trace(args.suite, args.tasks[0], args.memory_episodes, args.size, args.seed), args
+        )
+        print(text)
+        if args.results:
+            from benchmarks.results import replace_section
+
+            replace_section(args.results, "Generation memory", text)
+        return
+    # Medians of --repeats runs: the split run with the median wall time, and median walls.
+    splits = sorted(
+        (
+            measure_split(args.suite, args.tasks, args.episodes, args.size, args.seed)
+            for _ in range(args.repeats)
+        ),
+        key=lambda r: r["wall"],
+    )
+    r = splits[len(splits) // 2]
+    ones, twos = [], []
+    for _ in range(args.repeats):
+        ones.append(wall_with_workers(args.suite, args.tasks, args.episodes, args.size, args.seed, 1))
+        twos.append(wall_with_workers(args.suite, args.tasks, args.episodes, args.size, args.seed, 2))
+    one, two = statistics.median(ones), statistics.median(twos)
     text = table(r, one, two, args)
     print(text)
     if args.results:

@@ -115,6 +115,6 @@ class Motion:
         The following motions send the gripper command 0 (hold) until the next open or close.
         """
         yield from self.set_gripper(OPEN, steps=2, mat=mat)  # its set-point is fully open again
-        steps = max(int(round((FULL_OPENING - opening) / CLOSING_PER_STEP)), 0)
+        steps = max(round((FULL_OPENING - opening) / CLOSING_PER_STEP), 0)
         yield from self.set_gripper(CLOSE, steps=steps, mat=mat)
         return (yield from self.set_gripper(HOLD, steps=3, mat=mat))

@@ -36,7 +36,11 @@ def covered_by_opening(scene: SceneView, region: str, obj: str, margin: float = 
     part = part_in(scene, region)
     now = scene.points_of_bodies(scene.subtree(scene.body_id(part.joint.body)))
     centre = (olo + ohi) / 2
-    if np.all(centre[:2] > now.min(0)[:2]) and np.all(centre[:2] < now.max(0)[:2]) and centre[2] > now.min(0)[2]:
+    if (
+        np.all(centre[:2] > now.min(0)[:2])
+        and np.all(centre[:2] < now.max(0)[:2])
+        and centre[2] > now.min(0)[2]
+    ):
         return False
     overlap_xy = bool(np.all(olo[:2] < hi[:2] + margin) and np.all(ohi[:2] > lo[:2] - margin))
     return overlap_xy and float(olo[2]) < float(hi[2])

@@ -248,11 +248,15 @@ def _within_reach(ctx: Context, grasps: list, obj: str | None = None, target: st
 
 
 def _target_point(ctx: Context, target: str) -> np.ndarray | None:
-    """Where an object put on or into ``target`` ends up, roughly: its centre, on its top."""
+    """Where an object put on or into ``target`` ends up, roughly.
+
+    An object target: its body's xy, 1 cm above its bottom (a plate's surface). A region:
+    its site.
+    """
     scene = ctx.scene
     if ctx.is_entity(target):
-        lo, hi = scene.aabb(target)
-        return np.array([*scene.pos(target)[:2], float(lo[2]) + 0.01])
+        bottom = float(scene.aabb(target)[0][2])
+        return np.array([*scene.pos(target)[:2], bottom + 0.01])
     if scene.has_site(target):
         return scene.site(target).pos.copy()
     return None

@@ -103,7 +103,9 @@ def spot_cost(
     level = pts[np.abs(pts[:, 2] - floor) < 0.006, :2]
     probes = centre + np.stack(np.meshgrid(*(np.linspace(-0.9, 0.9, 5),) * 2), -1).reshape(-1, 2) * half
     supported = (
-        float(np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes])) if len(level) else 0.0
+        float(np.mean([bool((np.abs(level - q) < 0.006).all(axis=1).any()) for q in probes]))
+        if len(level)
+        else 0.0
     )
     return blocked, supported
 
