@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.record.rrd import rrd_file
+
 FPS = 20
 STATE_NAMES = ["eef_x", "eef_y", "eef_z", "eef_ax", "eef_ay", "eef_az", "gripper_left", "gripper_right"]
 ACTION_NAMES = ["dx", "dy", "dz", "drx", "dry", "drz", "gripper"]
@@ -39,28 +41,24 @@ def write_rollout_rrd(
     if len(frames) != len(success):
         raise ValueError(f"{len(frames)} frames but {len(success)} success flags")
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    rec = rr.RecordingStream("libero-bench", recording_id=recording_id)
-    rec.save(str(tmp))
-    rec.log("language", rr.TextDocument(language), static=True)
-    rec.log("tags", rr.TextDocument(json.dumps(dict(tags), sort_keys=True, default=str)), static=True)
-    for step, (obs, ok) in enumerate(zip(frames, success, strict=True)):
-        rec.set_time("step", sequence=step)
-        rec.set_time("time", duration=step / FPS)
-        for camera, entity in CAMERAS.items():
-            if camera in obs:
-                rec.log(entity, rr.Image(np.asarray(obs[camera], dtype=np.uint8)).compress(jpeg_quality=90))
-        _scalars(rec, "state", STATE_NAMES, obs.get("state"))
-        _scalars(rec, "joints", JOINT_NAMES, obs.get("joint_pos"))
-        _scalars(rec, "action", ACTION_NAMES, obs.get("action"))
-        rec.log("success", rr.Scalars(float(bool(ok))))
-    if frames:
-        outcome = "success: the goal holds" if any(success) else "failure: the goal was not reached"
-        rec.log("log", rr.TextLog(f"{language}: {outcome} after {len(frames)} steps"))
-    rec.flush()
-    rec.disconnect()
-    tmp.replace(out)
+    with rrd_file(out, "libero-bench", recording_id) as rec:
+        rec.log("language", rr.TextDocument(language), static=True)
+        rec.log("tags", rr.TextDocument(json.dumps(dict(tags), sort_keys=True, default=str)), static=True)
+        for step, (obs, ok) in enumerate(zip(frames, success, strict=True)):
+            rec.set_time("step", sequence=step)
+            rec.set_time("time", duration=step / FPS)
+            for camera, entity in CAMERAS.items():
+                if camera in obs:
+                    rec.log(
+                        entity, rr.Image(np.asarray(obs[camera], dtype=np.uint8)).compress(jpeg_quality=90)
+                    )
+            _scalars(rec, "state", STATE_NAMES, obs.get("state"))
+            _scalars(rec, "joints", JOINT_NAMES, obs.get("joint_pos"))
+            _scalars(rec, "action", ACTION_NAMES, obs.get("action"))
+            rec.log("success", rr.Scalars(float(bool(ok))))
+        if frames:
+            outcome = "success: the goal holds" if any(success) else "failure: the goal was not reached"
+            rec.log("log", rr.TextLog(f"{language}: {outcome} after {len(frames)} steps"))
     return out
 
 
@@ -88,17 +86,11 @@ def write_saliency_rrd(
     import rerun as rr
 
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    rec = rr.RecordingStream("libero-bench-saliency", recording_id=recording_id)
-    rec.save(str(tmp))
-    rec.log("language", rr.TextDocument(language), static=True)
-    for index, image, sal, over in zip(frame_indices, images, maps, overlays, strict=True):
-        rec.set_time("frame", sequence=int(index))
-        rec.log("agentview", rr.Image(np.asarray(image, dtype=np.uint8)))
-        rec.log("saliency", rr.Image(np.asarray(sal, dtype=np.float32)))
-        rec.log("overlay", rr.Image(np.asarray(over, dtype=np.uint8)))
-    rec.flush()
-    rec.disconnect()
-    tmp.replace(out)
+    with rrd_file(out, "libero-bench-saliency", recording_id) as rec:
+        rec.log("language", rr.TextDocument(language), static=True)
+        for index, image, sal, over in zip(frame_indices, images, maps, overlays, strict=True):
+            rec.set_time("frame", sequence=int(index))
+            rec.log("agentview", rr.Image(np.asarray(image, dtype=np.uint8)))
+            rec.log("saliency", rr.Image(np.asarray(sal, dtype=np.float32)))
+            rec.log("overlay", rr.Image(np.asarray(over, dtype=np.uint8)))
     return out

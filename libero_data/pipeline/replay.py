@@ -20,6 +20,7 @@ from libero_data.record.features import (
     OBS_WRIST_IMAGE,
     STATE_NAMES,
 )
+from libero_data.record.rrd import rrd_file
 
 
 def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
@@ -34,34 +35,28 @@ def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
         raise ValueError(f"{root} has episodes 0..{total - 1}, not {episode}")
     dataset = LeRobotDataset(_repo_id(root), root=root, episodes=[episode])
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    rec = rr.RecordingStream("libero-data", recording_id=f"{root.name}-episode-{episode}")
-    tmp = out.with_name(out.name + ".tmp")
-    rec.save(str(tmp))
     language = None
     fps = float(info["fps"])
-    for i in range(len(dataset)):
-        item = dataset[i]
-        t = int(item["frame_index"])
-        rec.set_time("frame", sequence=t)
-        rec.set_time("time", duration=t / fps)
-        if language is None:
-            language = str(item["task"])
-            rec.log("language", rr.TextDocument(language), static=True)
-            rec.log("log", rr.TextLog(f"episode {episode}: {language}"))
-        for key, path in ((OBS_IMAGE, "cameras/agentview"), (OBS_WRIST_IMAGE, "cameras/eye_in_hand")):
-            if key in item:
-                image = (item[key].permute(1, 2, 0).numpy() * 255).round().clip(0, 255).astype(np.uint8)
-                rec.log(path, rr.Image(image).compress(jpeg_quality=90))
-        state = item[OBS_STATE].numpy()
-        action = item[ACTION].numpy()
-        for name, value in zip(STATE_NAMES, state, strict=True):
-            rec.log(f"state/{name}", rr.Scalars(float(value)))
-        for name, value in zip(ACTION_NAMES, action, strict=True):
-            rec.log(f"action/{name}", rr.Scalars(float(value)))
-    rec.flush()
-    rec.disconnect()
-    tmp.replace(out)
+    with rrd_file(out, "libero-data", f"{root.name}-episode-{episode}") as rec:
+        for i in range(len(dataset)):
+            item = dataset[i]
+            t = int(item["frame_index"])
+            rec.set_time("frame", sequence=t)
+            rec.set_time("time", duration=t / fps)
+            if language is None:
+                language = str(item["task"])
+                rec.log("language", rr.TextDocument(language), static=True)
+                rec.log("log", rr.TextLog(f"episode {episode}: {language}"))
+            for key, path in ((OBS_IMAGE, "cameras/agentview"), (OBS_WRIST_IMAGE, "cameras/eye_in_hand")):
+                if key in item:
+                    image = (item[key].permute(1, 2, 0).numpy() * 255).round().clip(0, 255).astype(np.uint8)
+                    rec.log(path, rr.Image(image).compress(jpeg_quality=90))
+            state = item[OBS_STATE].numpy()
+            action = item[ACTION].numpy()
+            for name, value in zip(STATE_NAMES, state, strict=True):
+                rec.log(f"state/{name}", rr.Scalars(float(value)))
+            for name, value in zip(ACTION_NAMES, action, strict=True):
+                rec.log(f"action/{name}", rr.Scalars(float(value)))
     return out
 
 
