@@ -115,6 +115,16 @@ def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> lis
         shutil.rmtree(work, ignore_errors=True)
 
 
+def memory_line(trace: list[float]) -> str:
+    tenth = max(len(trace) // 10, 1)
+    early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
+    return (
+        f"Worker memory over {len(trace)} rollouts (one worker, resident MiB after each): first "
+        f"{trace[0]:.0f}, mean of the first tenth {early:.0f}, of the last tenth {late:.0f}, max "
+        f"{max(trace):.0f}; growth from the first to the last tenth **{late - early:+.0f} MiB**."
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--task", default="libero_object/0")
@@ -122,8 +132,26 @@ def main() -> None:
     parser.add_argument("--max-steps", type=int, default=40)
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--memory-rollouts", type=int, default=0)
+    parser.add_argument(
+        "--memory-only",
+        action="store_true",
+        help="Only the memory trace (--memory-rollouts), into its own section of RESULTS.md.",
+    )
     parser.add_argument("--results", type=Path, help="RESULTS.md to update")
     args = parser.parse_args()
+    if args.memory_only:
+        trace = memory_trace(args.task, args.memory_rollouts, args.size, args.max_steps)
+        text = (
+            f"Run: `python -m benchmarks.bench_eval --task {args.task} --max-steps {args.max_steps} --size "
+            f"{args.size} --memory-rollouts {args.memory_rollouts} --memory-only` (one worker, smoke ResNet-T, "
+            "each rollout stored as shard + MCAP + .rrd).\n\n" + memory_line(trace)
+        )
+        print(text)
+        if args.results:
+            from benchmarks.results import replace_section
+
+            replace_section(args.results, "Evaluation memory", text)
+        return
     one, peaks1 = rate(args.task, 1, args.rollouts, args.size, args.max_steps)
     two, peaks2 = rate(args.task, 2, args.rollouts, args.size, args.max_steps)
     lines = [
@@ -140,14 +168,7 @@ def main() -> None:
     ]
     if args.memory_rollouts:
         trace = memory_trace(args.task, args.memory_rollouts, args.size, args.max_steps)
-        tenth = max(len(trace) // 10, 1)
-        early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
-        lines += [
-            "",
-            f"Worker memory over {len(trace)} rollouts (one worker, resident MiB after each): first "
-            f"{trace[0]:.0f}, mean of the first tenth {early:.0f}, of the last tenth {late:.0f}, max "
-            f"{max(trace):.0f}; growth from the first to the last tenth {late - early:+.0f} MiB.",
-        ]
+        lines += ["", memory_line(trace)]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.results:

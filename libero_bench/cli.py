@@ -196,7 +196,9 @@ def run_cmd(
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per rollout video
     os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")  # the sentence encoder's loading bar
     from libero_bench.presets import get_preset
+    from libero_data.pipeline.memory import limit_malloc_arenas
 
+    limit_malloc_arenas()  # rollouts run in this process with --workers 0
     chosen = apply_overrides(get_preset(preset), overrides or [])
     import torch
 

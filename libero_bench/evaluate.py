@@ -259,6 +259,9 @@ def _init_worker() -> None:
     os.environ.setdefault("SVT_LOG", "1")
     import torch
 
+    from libero_data.pipeline.memory import limit_malloc_arenas
+
+    limit_malloc_arenas()
     torch.set_num_threads(1)
     _RUNNER = RolloutRunner()
 

@@ -269,7 +269,10 @@ def generate_cmd(
     from libero_data.pipeline.generate import generate, resolve_request
 
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
+    from libero_data.pipeline.memory import limit_malloc_arenas
     from libero_data.pipeline.ray_runtime import executor_problem
+
+    limit_malloc_arenas()  # with --workers 1 this process renders and writes every episode
 
     problem = executor_problem(executor, ray_address)
     if problem is not None:

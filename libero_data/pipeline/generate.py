@@ -285,9 +285,12 @@ def _die_with_parent() -> None:
 
 
 def _init_worker(queue: Any) -> None:
+    from libero_data.pipeline.memory import limit_malloc_arenas
+
     global _QUEUE
     _QUEUE = queue
     _die_with_parent()
+    limit_malloc_arenas()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("SVT_LOG", "1")
     logging.getLogger("libero_data").setLevel(logging.WARNING)

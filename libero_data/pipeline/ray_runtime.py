@@ -31,7 +31,8 @@ def start_ray(workers: int, address: str | None) -> tuple[Any, bool]:
         raise ValueError("--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)") from exc
     if ray.is_initialized():
         return ray, False
-    env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+    # MALLOC_ARENA_MAX: see libero_data.pipeline.memory (Ray starts the worker processes).
+    env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1", "MALLOC_ARENA_MAX": "2"}
     if os.environ.get("MUJOCO_GL"):
         env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
     options: dict[str, Any] = {
