@@ -26,12 +26,7 @@ from typing import Any
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("SVT_LOG", "1")
 
-
-def _mib(pid: int, field: str) -> float:
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith(field + ":"):
-            return int(line.split()[1]) / 1024
-    return float("nan")
+from benchmarks.results import growth_summary, status_mib
 
 
 def _jobs(task_ref: str, n: int, size: int, max_steps: int, work: Path, first: int = 0) -> list[Any]:
@@ -90,7 +85,7 @@ def rate(task_ref: str, workers: int, rollouts: int, size: int, max_steps: int) 
             minutes = (time.perf_counter() - start) / 60
             pool = evaluator._pool
             pids = list(pool._processes) if pool is not None and pool._processes else []
-            peaks = [_mib(pid, "VmHWM") for pid in pids]
+            peaks = [status_mib(pid, "VmHWM") for pid in pids]
         return rollouts / minutes, peaks
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -108,21 +103,11 @@ def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> lis
             for r in range(rollouts):
                 evaluator.run(policy, _jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
                 pid = next(iter(evaluator._pool._processes))  # type: ignore[union-attr]
-                trace.append(_mib(pid, "VmRSS"))
+                trace.append(status_mib(pid, "VmRSS"))
                 shutil.rmtree(work / f"m{r}", ignore_errors=True)
         return trace
     finally:
         shutil.rmtree(work, ignore_errors=True)
-
-
-def memory_line(trace: list[float]) -> str:
-    tenth = max(len(trace) // 10, 1)
-    early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
-    return (
-        f"Worker memory over {len(trace)} rollouts (one worker, resident MiB after each): first "
-        f"{trace[0]:.0f}, mean of the first tenth {early:.0f}, of the last tenth {late:.0f}, max "
-        f"{max(trace):.0f}; growth from the first to the last tenth **{late - early:+.0f} MiB**."
-    )
 
 
 def main() -> None:
@@ -144,7 +129,9 @@ def main() -> None:
         text = (
             f"Run: `python -m benchmarks.bench_eval --task {args.task} --max-steps {args.max_steps} --size "
             f"{args.size} --memory-rollouts {args.memory_rollouts} --memory-only` (one worker, smoke ResNet-T, "
-            "each rollout stored as shard + MCAP + .rrd).\n\n" + memory_line(trace)
+            "each rollout stored as shard + MCAP + .rrd).\n\n"
+            + "One worker: "
+            + growth_summary(trace, "rollouts")
         )
         print(text)
         if args.results:
@@ -168,7 +155,7 @@ def main() -> None:
     ]
     if args.memory_rollouts:
         trace = memory_trace(args.task, args.memory_rollouts, args.size, args.max_steps)
-        lines += ["", memory_line(trace)]
+        lines += ["", "One worker: " + growth_summary(trace, "rollouts")]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.results:

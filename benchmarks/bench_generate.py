@@ -37,6 +37,8 @@ from typing import Any
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("SVT_LOG", "1")
 
+from benchmarks.results import growth_summary, status_mib
+
 STAGES = ("physics", "expert", "rendering", "frame assembly", "encoding", "writing", "publishing", "other")
 
 
@@ -156,7 +158,7 @@ def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> 
         finished = progress.done + progress.failed
         if finished > seen:
             seen = finished
-            trace.append(_rss_mib())
+            trace.append(status_mib(os.getpid(), "VmRSS"))
 
     try:
         generate(request, out, workers=1, publish_every=1e9, on_progress=on_progress)
@@ -165,23 +167,13 @@ def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> 
         shutil.rmtree(out.parent, ignore_errors=True)
 
 
-def _rss_mib() -> float:
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) / 1024
-    return float("nan")
-
-
 def memory_table(trace: list[float], args: argparse.Namespace) -> str:
-    tenth = max(len(trace) // 10, 1)
-    early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
     return (
         f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --memory-episodes "
         f"{args.memory_episodes} --size {args.size}` (task {args.tasks[0]}, one process that searches and "
         "renders, two cameras; resident memory sampled after each episode).\n\n"
-        f"Resident MiB over {len(trace)} episodes: first {trace[0]:.0f}, mean of the first tenth {early:.0f}, "
-        f"of the last tenth {late:.0f}, max {max(trace):.0f}; growth from the first to the last tenth "
-        f"**{late - early:+.0f} MiB**.\n"
+        + growth_summary(trace, "episodes")
+        + "\n"
     )
 
 

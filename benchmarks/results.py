@@ -9,6 +9,25 @@ import re
 from pathlib import Path
 
 
+def status_mib(pid: int, field: str) -> float:
+    """A memory field of ``/proc/<pid>/status`` (``VmRSS``, ``VmHWM``) in MiB."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def growth_summary(trace: list[float], what: str) -> str:
+    """One sentence on resident memory sampled after each of ``len(trace)`` ``what``."""
+    tenth = max(len(trace) // 10, 1)
+    early, late = sum(trace[:tenth]) / tenth, sum(trace[-tenth:]) / tenth
+    return (
+        f"Resident MiB over {len(trace)} {what}: first {trace[0]:.0f}, mean of the first tenth {early:.0f}, "
+        f"of the last tenth {late:.0f}, max {max(trace):.0f}; growth from the first to the last tenth "
+        f"**{late - early:+.0f} MiB**."
+    )
+
+
 def machine() -> str:
     cores = os.cpu_count()
     try:

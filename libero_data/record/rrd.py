@@ -30,14 +30,14 @@ def rrd_file(path: str | Path, application_id: str, recording_id: str) -> Iterat
     rerun_bindings.flush_and_cleanup_orphaned_recordings()  # streams of earlier files
     rec = rr.RecordingStream(application_id, recording_id=recording_id)
     rec.save(str(tmp))
+    finished = False
     try:
         yield rec
         rec.flush()
-    except BaseException:
+        finished = True
+    finally:
         rec.disconnect()
         rec.reset_time()
-        tmp.unlink(missing_ok=True)
-        raise
-    rec.disconnect()
-    rec.reset_time()
+        if not finished:
+            tmp.unlink(missing_ok=True)
     tmp.replace(out)

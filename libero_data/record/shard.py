@@ -91,17 +91,8 @@ def write_frames(
     ``episode.json`` (``info`` plus the length).
     """
     out = Path(out_dir)
-    tmp = out.with_name(f"{out.name}.tmp-{os.getpid()}")
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    try:
+    with atomic_folder(out) as tmp:
         _write_tmp(tmp, frames, success, task, instruction, image_size, sim_state_width, info)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    if out.exists():
-        shutil.rmtree(out)
-    tmp.rename(out)
     return out
 
 
@@ -125,9 +116,9 @@ def _write_tmp(
         robot_type="panda",
         use_videos=True,
         # Frames go straight to the encoder (one thread per camera) instead of through a PNG
-        # per frame and camera: the same video bytes, ~5x less time writing an episode. The
-        # streaming encoder drops frames when its queue is full (it is made for live
-        # cameras), so the queue holds the whole episode, and the videos are checked below.
+        # per frame and camera; the video bytes are the same. The streaming encoder drops
+        # frames when its queue is full (it is made for live cameras), so the queue holds
+        # the whole episode, and the videos are checked below.
         streaming_encoding=True,
         encoder_threads=1,
         encoder_queue_maxsize=len(frames) + 1,
@@ -150,7 +141,6 @@ def _write_tmp(
         metadata={k: json.dumps(v) for k, v in info.items()},
     )
     (tmp / INFO_NAME).write_text(json.dumps({**info, "length": len(frames)}, sort_keys=True))
-    fsync_tree(tmp)
 
 
 def _check_video_lengths(root: Path, frames: int) -> None:
@@ -186,16 +176,32 @@ def pack_tree(root: Path) -> dict[str, bytes]:
 def unpack_tree(files: dict[str, bytes], dest: Path) -> Path:
     """Write :func:`pack_tree`'s files as folder ``dest``, which appears (or is replaced) atomically."""
     dest = Path(dest)
+    with atomic_folder(dest) as tmp:
+        tmp.mkdir(parents=True)
+        for rel, data in files.items():
+            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / rel).write_bytes(data)
+    return dest
+
+
+@contextlib.contextmanager
+def atomic_folder(dest: Path) -> Iterator[Path]:
+    """A scratch path next to ``dest`` (not created: the block makes it) that replaces ``dest``,
+    flushed to disk, when the block ends.
+
+    On an exception the scratch folder is removed and ``dest`` is left as it was.
+    """
     tmp = dest.with_name(f"{dest.name}.tmp-{os.getpid()}")
-    shutil.rmtree(tmp, ignore_errors=True)
-    for rel, data in files.items():
-        (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
-        (tmp / rel).write_bytes(data)
-    fsync_tree(tmp)
+    shutil.rmtree(tmp, ignore_errors=True)  # a leftover of an earlier process with this pid
+    try:
+        yield tmp
+        fsync_tree(tmp)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     if dest.exists():
         shutil.rmtree(dest)
     tmp.rename(dest)
-    return dest
 
 
 def fsync_tree(root: Path) -> None:
