@@ -274,7 +274,12 @@ class LiberoEnv:
         if not self.config.cameras:
             raise RuntimeError("this environment was built without cameras (EnvConfig.cameras=())")
         size = self.config.image_size
-        image = self._env.sim.render(width=size, height=size, camera_name=CAMERAS.get(camera, camera))
+        sim = self._env.sim
+        # robosuite renders into whichever OpenGL context is current, and creating another
+        # environment makes that one's context current: without this, a second environment
+        # in the same process silently turns this one's images into a mix of both scenes.
+        sim._render_context_offscreen.gl_ctx.make_current()
+        image = sim.render(width=size, height=size, camera_name=CAMERAS.get(camera, camera))
         # MuJoCo reads pixels bottom-up and LIBERO's cameras are mounted rolled by 180 degrees:
         # rotating by 180 degrees gives the upright view (as LeRobot's LIBERO processing does).
         return np.ascontiguousarray(image[::-1, ::-1])

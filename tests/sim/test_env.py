@@ -130,3 +130,19 @@ def test_trimmed_step_gives_the_same_states_as_liberos_own_step() -> None:
                 assert env.raw.reward() == 0.0
     assert np.array_equal(runs[0][0], runs[1][0])
     assert runs[0][1] == runs[1][1]
+
+
+def test_two_environments_in_one_process_render_their_own_scenes() -> None:
+    # Each environment has its own OpenGL context; building a second one makes its context
+    # current, and the first must still render its own scene (it did not: mean |Δ| 27/255).
+    first, second = get_task("libero_object/0"), get_task("libero_goal/1")
+    with LiberoEnv(first, EnvConfig(image_size=64, cameras=("agentview",))) as a:
+        a.reset(first.init_states()[0], seed=0, render=False)
+        before = a.render("agentview")
+        with LiberoEnv(second, EnvConfig(image_size=64, cameras=("agentview",))) as b:
+            b.reset(second.init_states()[0], seed=0, render=False)
+            other = b.render("agentview")
+            after = a.render("agentview")
+            again = b.render("agentview")
+    np.testing.assert_array_equal(after, before)
+    np.testing.assert_array_equal(again, other)
