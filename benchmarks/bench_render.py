@@ -1,12 +1,13 @@
 """Rendering cost: our environment against a bare MuJoCo render loop and LIBERO's own env.
 
 Three measurements on the same task, cameras (agentview + eye-in-hand) and image size, each
-the median of ``--reps`` repetitions of ``--frames`` frames, in one process, one at a time:
+the median of ``--reps`` rounds of ``--frames`` frames, in one process; the measurements
+take turns round by round, so a change in load hits them all alike:
 
 - **bare**: ``mujoco.Renderer`` on the task's compiled model, both cameras per frame
   (the floor: what rendering these two views costs without any toolkit around it);
 - **ours**: ``LiberoEnv.step(noop)`` with both cameras (physics + rendering + observation);
-  and ``LiberoEnv.render`` alone, per camera frame;
+  and ``LiberoEnv.render`` alone, per camera frame (both cameras, as for bare);
 - **LIBERO**: ``OffScreenRenderEnv.step(noop)`` with the same two cameras and size, the
   baseline users have today.
 
@@ -20,6 +21,7 @@ import argparse
 import os
 import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -29,65 +31,90 @@ import numpy as np
 NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
 
 
-def _median_rate(fn, frames: int, reps: int) -> float:
-    """Median seconds per call of ``fn`` over ``reps`` runs of ``frames`` calls."""
-    fn()  # warm-up (first frame builds GL resources)
-    times = []
+def _interleaved_rates(
+    fns: dict[str, Callable[[], object]],
+    before: dict[str, Callable[[], object]],
+    frames: int,
+    reps: int,
+) -> dict[str, float]:
+    """Median seconds per call of each function over ``reps`` rounds of ``frames`` calls.
+
+    The rounds take turns (one round of each, then the next), so a change in the machine's
+    load during the run affects every measurement alike instead of the one that happened to
+    run then; ``before[name]`` (untimed) runs ahead of each of that function's rounds.
+    """
+    for name, fn in fns.items():  # warm-up (the first frame builds GL resources)
+        before.get(name, lambda: None)()
+        fn()
+    times: dict[str, list[float]] = {name: [] for name in fns}
     for _ in range(reps):
-        start = time.perf_counter()
-        for _ in range(frames):
-            fn()
-        times.append((time.perf_counter() - start) / frames)
-    return statistics.median(times)
+        for name, fn in fns.items():
+            before.get(name, lambda: None)()
+            start = time.perf_counter()
+            for _ in range(frames):
+                fn()
+            times[name].append((time.perf_counter() - start) / frames)
+    return {name: statistics.median(t) for name, t in times.items()}
 
 
 def measure(task_ref: str, size: int, frames: int, reps: int) -> dict[str, float]:
     import mujoco
+    from libero.libero.envs import OffScreenRenderEnv
 
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.tasks import get_task
 
     task = get_task(task_ref)
-    out: dict[str, float] = {}
+    cameras = ["agentview", "robot0_eye_in_hand"]
     with LiberoEnv(task, EnvConfig(image_size=size)) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
-        out["ours_step"] = _median_rate(lambda: env.step(NOOP), frames, reps)
-        out["ours_frame"] = _median_rate(lambda: env.render("agentview"), frames, reps)
-        out["ours_step_no_cameras"] = _median_rate(lambda: env.step(NOOP, render=False), frames, reps)
         model, data = env.sim.model._model, env.sim.data._data
         renderer = mujoco.Renderer(model, size, size)
-        cameras = ["agentview", "robot0_eye_in_hand"]
 
         def bare() -> None:
             for cam in cameras:
                 renderer.update_scene(data, camera=cam)
                 renderer.render()
 
-        out["bare_two_cameras"] = _median_rate(bare, frames, reps)
-        out["bare_frame"] = out["bare_two_cameras"] / 2
-        renderer.close()
-
-    from libero.libero.envs import OffScreenRenderEnv
-
-    libero_env = OffScreenRenderEnv(
-        bddl_file_name=str(task.bddl_path),
-        camera_heights=size,
-        camera_widths=size,
-        camera_names=["agentview", "robot0_eye_in_hand"],
-    )
-    try:
-        libero_env.seed(0)
-        libero_env.reset()
-        libero_env.set_init_state(task.init_states()[0])
-        out["libero_step"] = _median_rate(lambda: libero_env.step(NOOP), frames, reps)
-    finally:
-        libero_env.close()
+        libero_env = OffScreenRenderEnv(
+            bddl_file_name=str(task.bddl_path),
+            camera_heights=size,
+            camera_widths=size,
+            camera_names=cameras,
+        )
+        try:
+            libero_env.seed(0)
+            libero_env.reset()
+            libero_env.set_init_state(task.init_states()[0])
+            # robosuite renders into the current OpenGL context: LIBERO's own env needs its
+            # context made current before its rounds (LiberoEnv.render does this itself).
+            libero_gl = libero_env.env.sim._render_context_offscreen.gl_ctx
+            out = _interleaved_rates(
+                {
+                    "ours_step": lambda: env.step(NOOP),
+                    "ours_two_cameras": lambda: (env.render("agentview"), env.render("eye_in_hand")),
+                    "ours_step_no_cameras": lambda: env.step(NOOP, render=False),
+                    "bare_two_cameras": bare,
+                    "libero_step": lambda: libero_env.step(NOOP),
+                },
+                {"libero_step": libero_gl.make_current},
+                frames,
+                reps,
+            )
+        finally:
+            libero_env.close()
+            renderer.close()
+    # Per camera frame, averaged over the same two cameras (their costs differ: each draws
+    # the whole scene, but they cover different amounts of it).
+    out["bare_frame"] = out["bare_two_cameras"] / 2
+    out["ours_frame"] = out["ours_two_cameras"] / 2
     return out
 
 
 def table(r: dict[str, float], task: str, size: int, frames: int, reps: int) -> str:
     lines = [
-        f"Task `{task}`, two cameras at {size}×{size}, medians of {reps} × {frames} frames, one process.",
+        f"Task `{task}`, two cameras at {size}×{size}, medians of {reps} rounds × {frames} frames taking "
+        f"turns, one process; llvmpipe threads: {os.environ.get('LP_NUM_THREADS', 'default (one per core)')}.",
         "",
         "| measurement | ms | ratio | target |",
         "|---|---:|---:|---|",
