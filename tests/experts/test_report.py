@@ -75,3 +75,14 @@ def test_expert_report_writes_tables_and_resumes(tmp_path: Path) -> None:
     assert other.returncode == 2
     assert "different settings (seed)" in other.stderr
     assert "Traceback" not in other.stderr
+
+
+def test_failure_reasons_keep_the_names_and_numbers_they_give() -> None:
+    from libero_data.experts.report import _reason
+
+    # These read "could not reach the handle of (15)" and "step budget of exhausted" before.
+    assert _reason("could not reach the handle of wooden_cabinet_1_top_region") == (
+        "could not reach the handle of wooden_cabinet_1_top_region"
+    )
+    assert _reason("step budget of 1000 exhausted") == "step budget of 1000 exhausted"
+    assert _reason(None) == "unknown"
