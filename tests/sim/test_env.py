@@ -146,3 +146,22 @@ def test_two_environments_in_one_process_render_their_own_scenes() -> None:
             again = b.render("agentview")
     np.testing.assert_array_equal(after, before)
     np.testing.assert_array_equal(again, other)
+
+
+def test_set_state_puts_the_gripper_ramp_at_rest_open() -> None:
+    # set_state copies the ramp's resting value, worked out once, instead of running the
+    # ramp every time: the same numbers as running it from zero.
+    task = get_task("libero_object/0")
+    with LiberoEnv(task, EnvConfig(cameras=())) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        gripper = env.raw.robots[0].gripper
+        gripper.current_action = np.zeros(gripper.dof)
+        for _ in range(int(np.ceil(2.0 / gripper.speed)) + 1):
+            gripper.format_action(np.array([-1.0]))
+        expected = gripper.current_action.copy()
+        env.step(np.array([0, 0, 0, 0, 0, 0, 1.0]), render=False)  # closing moves the ramp
+        env.set_state(env.get_state())
+        np.testing.assert_array_equal(gripper.current_action, expected)
+        gripper.current_action[:] = 0.0  # the stored value is a copy, not shared
+        env.set_state(env.get_state())
+        np.testing.assert_array_equal(gripper.current_action, expected)
