@@ -7,9 +7,10 @@ One in-process ``generate`` run (``--workers 1``) over ``--tasks`` of ``--suite`
 - **expert**: the rest of ``Expert.run`` (planning, grasp search, skill logic);
 - **rendering**: ``LiberoEnv.render`` (MuJoCo/OpenGL, both cameras of every kept frame);
 - **frame assembly**: the rest of rendering an episode from its states (restoring each
-  state, building the observation);
+  state, building the observation, checking the goal);
 - **encoding**: LeRobot's video encoding: handing frames to its streaming encoder and
-  waiting for the encoder threads to finish an episode (``StreamingVideoEncoder``);
+  waiting for the encoder threads to finish an episode (``StreamingVideoEncoder``); the
+  threads encode while later frames render, so only what is left at the end counts here;
 - **writing**: the rest of writing an episode (LeRobot's frame buffer, parquet, MCAP,
   fsync);
 - **publishing**: merging finished episodes into the dataset and writing the card;
@@ -50,11 +51,18 @@ class Timers:
         self.total: dict[str, float] = defaultdict(float)
         self.calls: dict[str, int] = defaultdict(int)
 
-    def wrap(self, owner: Any, name: str, stage: str) -> Callable[[], None]:
+        self.writing_shard = False  # set while write_shard runs
+
+    def wrap(
+        self, owner: Any, name: str, stage: str, when: Callable[[], bool] | None = None
+    ) -> Callable[[], None]:
+        """Time ``owner.name`` as ``stage`` (only while ``when()`` holds, if given)."""
         original = getattr(owner, name)
         timers = self
 
         def timed(*args: Any, **kwargs: Any) -> Any:
+            if when is not None and not when():
+                return original(*args, **kwargs)
             start = time.perf_counter()
             try:
                 return original(*args, **kwargs)
@@ -76,16 +84,33 @@ def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: 
     from libero_data.sim.env import LiberoEnv
 
     timers = Timers()
+    in_shard = lambda: timers.writing_shard  # noqa: E731
     undo = [
         timers.wrap(LiberoEnv, "_physics_step", "physics"),
         timers.wrap(Expert, "run", "search"),
         timers.wrap(LiberoEnv, "render", "rendering"),
-        timers.wrap(shard, "render_frames", "render_frames"),
+        # Restoring each stored state and building its observation (rendering included,
+        # subtracted below), only while an episode is rendered and written.
+        timers.wrap(LiberoEnv, "set_state", "assembly", when=in_shard),
+        timers.wrap(LiberoEnv, "observe", "assembly", when=in_shard),
+        timers.wrap(LiberoEnv, "success", "assembly", when=in_shard),
         timers.wrap(StreamingVideoEncoder, "feed_frame", "encoding"),
         timers.wrap(StreamingVideoEncoder, "finish_episode", "encoding"),
-        timers.wrap(shard, "write_frames", "write_frames"),
         timers.wrap(gen, "_publish", "publishing"),
     ]
+    shard_original = shard.write_shard
+
+    def write_shard_timed(*args: Any, **kwargs: Any) -> Any:
+        timers.writing_shard = True
+        start = time.perf_counter()
+        try:
+            return shard_original(*args, **kwargs)
+        finally:
+            timers.total["write_shard"] += time.perf_counter() - start
+            timers.writing_shard = False
+
+    shard.write_shard = write_shard_timed
+    undo.append(lambda: setattr(shard, "write_shard", shard_original))
     request = resolve_request(
         suite, [str(t) for t in tasks], episodes_per_task=episodes, image_size=size, seed=seed
     )
@@ -116,9 +141,9 @@ def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: 
         "physics": t["physics"],
         "expert": t["search"] - sum(physics_in_search),
         "rendering": t["rendering"],
-        "frame assembly": t["render_frames"] - t["rendering"],
+        "frame assembly": t["assembly"] - t["rendering"],
         "encoding": t["encoding"],
-        "writing": t["write_frames"] - t["encoding"],
+        "writing": t["write_shard"] - t["assembly"] - t["encoding"],
         "publishing": t["publishing"],
     }
     split["other"] = wall - sum(split.values())

@@ -11,7 +11,7 @@ import contextlib
 import json
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,20 +30,28 @@ INFO_NAME = "episode.json"
 
 
 def render_frames(
-    env: LiberoEnv, states: np.ndarray, actions: np.ndarray, final_state: np.ndarray
-) -> tuple[list[dict[str, Any]], list[bool]]:
-    """Observations (with images) of every stored state, and success after each action."""
-    frames: list[dict[str, Any]] = []
+    env: LiberoEnv,
+    states: np.ndarray,
+    actions: np.ndarray,
+    final_state: np.ndarray,
+    success: list[bool] | None = None,
+) -> Iterator[dict[str, Any]]:
+    """Observations (with images) of every stored state, one at a time as they are rendered.
+
+    ``success``, when given, receives whether the goal holds after each action, once the
+    last frame has been taken.
+    """
     holds: list[bool] = []
     for state, action in zip(states, actions, strict=True):
         env.set_state(state)
         obs = env.observe(render=True)
         obs["action"] = np.asarray(action, dtype=np.float32)
-        frames.append(obs)
         holds.append(env.success())
+        yield obs
     env.set_state(final_state)
     holds.append(env.success())
-    return frames, holds[1:]
+    if success is not None:
+        success.extend(holds[1:])
 
 
 def write_shard(
@@ -59,11 +67,16 @@ def write_shard(
     sim_state_width: int,
     info: dict[str, Any],
 ) -> Path:
-    """Render one searched episode from its states and write it into ``out_dir``."""
-    frames, success = render_frames(env, states, actions, final_state)
+    """Render one searched episode from its states and write it into ``out_dir``.
+
+    Each frame goes to the video encoder as soon as it is rendered, so encoding (in the
+    encoder's threads) overlaps rendering instead of following it.
+    """
+    success: list[bool] = []
     return write_frames(
         out_dir,
-        frames=frames,
+        frames=render_frames(env, states, actions, final_state, success),
+        length=len(states),
         success=success,
         task=task,
         instruction=instruction,
@@ -76,29 +89,35 @@ def write_shard(
 def write_frames(
     out_dir: str | Path,
     *,
-    frames: list[dict[str, Any]],
+    frames: Iterable[dict[str, Any]],
     success: list[bool],
     task: str,
     instruction: str,
     image_size: int,
     sim_state_width: int,
     info: dict[str, Any],
+    length: int | None = None,
 ) -> Path:
     """Write observed frames (env observations with images and an ``action``) as a one-episode shard.
 
     Used for expert demonstrations (rendered from states) and for policy rollouts (rendered
-    while acting). The folder appears atomically: a LeRobot dataset, ``episode.mcap`` and
-    ``episode.json`` (``info`` plus the length).
+    while acting). ``frames`` may be a list or an iterator (then ``length`` says how many it
+    gives, and ``success`` may be filled in while it runs). The folder appears atomically: a
+    LeRobot dataset, ``episode.mcap`` and ``episode.json`` (``info`` plus the length).
     """
+    if length is None:
+        frames = list(frames)
+        length = len(frames)
     out = Path(out_dir)
     with atomic_folder(out) as tmp:
-        _write_tmp(tmp, frames, success, task, instruction, image_size, sim_state_width, info)
+        _write_tmp(tmp, frames, length, success, task, instruction, image_size, sim_state_width, info)
     return out
 
 
 def _write_tmp(
     tmp: Path,
-    frames: list[dict[str, Any]],
+    frames: Iterable[dict[str, Any]],
+    length: int,
     success: list[bool],
     task: str,
     instruction: str,
@@ -121,26 +140,30 @@ def _write_tmp(
         # the whole episode, and the videos are checked below.
         streaming_encoding=True,
         encoder_threads=1,
-        encoder_queue_maxsize=len(frames) + 1,
+        encoder_queue_maxsize=length + 1,
     )
+    kept: list[dict[str, Any]] = []
     for obs in frames:
         frame = frame_from_observation(obs, obs["action"], sim_state_width)
         frame["task"] = instruction
         dataset.add_frame(frame)
+        kept.append(obs)
+    if len(kept) != length:
+        raise ValueError(f"expected {length} frames, got {len(kept)}")
     with quiet_datasets():
         dataset.save_episode(parallel_encoding=False)
         dataset.finalize()
-    _check_video_lengths(tmp, len(frames))
+    _check_video_lengths(tmp, length)
     write_episode_mcap(
         tmp / MCAP_NAME,
-        frames=frames,
+        frames=kept,
         task=task,
         instruction=instruction,
         success=success,
         fps=FPS,
         metadata={k: json.dumps(v) for k, v in info.items()},
     )
-    (tmp / INFO_NAME).write_text(json.dumps({**info, "length": len(frames)}, sort_keys=True))
+    (tmp / INFO_NAME).write_text(json.dumps({**info, "length": length}, sort_keys=True))
 
 
 def _check_video_lengths(root: Path, frames: int) -> None:
