@@ -18,9 +18,9 @@ One in-process ``generate`` run (``--workers 1``) over ``--tasks`` of ``--suite`
 
 Then the scaling: the same request in a fresh folder and a fresh Python process (wall time
 only), with one worker rendering on one llvmpipe thread (one core), one worker with Mesa's
-default of one thread per core, and two workers; the configurations take turns. Everything is measured on the same machine in the same run; prints a
-Markdown table and, with ``--results``, replaces this benchmark's section of
-``benchmarks/RESULTS.md``.
+default of one thread per core, and two workers; the configurations take turns.
+Everything is measured on the same machine in the same run; prints a Markdown table and,
+with ``--results``, replaces this benchmark's section of ``benchmarks/RESULTS.md``.
 """
 
 from __future__ import annotations

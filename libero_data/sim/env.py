@@ -354,8 +354,8 @@ def _resting_open(gripper: Any) -> np.ndarray:
     """A fresh copy of the gripper's command ramp after a long stretch of "open" commands.
 
     Worked out once per gripper kind by running the ramp from zero (a few hundred small
-    steps: ~4 ms, which every restored state used to pay) and then copied, so the value is
-    the same, bit for bit, as running it each time.
+    steps, which every restored state used to pay) and then copied, so the value is the
+    same, bit for bit, as running it each time.
     """
     key = (type(gripper), int(gripper.dof), float(gripper.speed))
     value = _RESTING_OPEN.get(key)
