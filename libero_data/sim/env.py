@@ -77,7 +77,6 @@ class LiberoEnv:
         self.problem: Problem = self.task.problem if self.task is not None else parse_file(self.bddl_path)
         self.language = self.task.language if self.task is not None else self.problem.language
         self.backend = select_backend(self.config.renderer) if self.config.cameras else None
-        self._stepping = False
         self._env = self._build()
         self._trim_step()
         model_cameras = set(self._env.sim.model.camera_names)
@@ -233,37 +232,29 @@ class LiberoEnv:
         return self.success()
 
     def _physics_step(self, action: np.ndarray) -> None:
-        # robosuite's own step, without LIBERO's wrapper around it (which evaluates the goal
-        # a second time for its ``done`` flag; the reward is switched off by _trim_step).
-        self._stepping = True
-        try:
-            self._robosuite_step(self._env, action)
-        finally:
-            self._stepping = False
+        # robosuite's control step as ControlStepper runs it (the same states, bit for bit),
+        # without LIBERO's wrapper around it (which evaluates the goal a second time for its
+        # ``done`` flag; the reward is switched off by _trim_step).
+        self._stepper.step(action)
 
     def _trim_step(self) -> None:
         """Remove work from robosuite's control step that never changes its result.
 
-        - robosuite runs ``mj_forward`` before each of the 25 physics substeps of a control
-          step, and the arm controller runs it again on the same state when it reads the
-          arm's pose: the second one is skipped while :meth:`_physics_step` runs.
+        - :class:`~libero_data.sim.stepper.ControlStepper` runs the 25 physics substeps of a
+          control step with one forward pass each instead of two, and the arm controller
+          reads the state through cached indices (see that module).
         - LIBERO's reward evaluates the goal's predicates on every control step; nothing
           here reads that reward (success is evaluated once, by :meth:`success`).
 
         Both are per instance (robosuite and LIBERO themselves are left untouched), and the
-        states a step produces are bit for bit the same (tested).
+        states a step produces are bit for bit the same (tested). Called again after every
+        reset, where robosuite builds new controllers.
         """
-        from robosuite.environments.base import MujocoEnv
+        from libero_data.sim.stepper import ControlStepper
 
-        self._robosuite_step = MujocoEnv.step
         env = self._env
         env.reward = _zero_reward
-        for robot in env.robots:
-            controller = robot.controller
-            if getattr(controller, "_libero_data_trimmed", False):
-                continue
-            controller.update = _update_without_forward(self, controller)
-            controller._libero_data_trimmed = True
+        self._stepper = ControlStepper(env)
 
     # observations -----------------------------------------------------------------------
     def render(self, camera: str) -> np.ndarray:
@@ -367,27 +358,6 @@ def _resting_open(gripper: Any) -> np.ndarray:
         value = _RESTING_OPEN[key] = np.array(gripper.current_action, copy=True)
         gripper.current_action = saved
     return value.copy()
-
-
-def _update_without_forward(env: LiberoEnv, controller: Any) -> Any:
-    original = controller.update  # the bound method robosuite (or its compat layer) installed
-    sim = controller.sim
-
-    def update(force: bool = False) -> Any:
-        if not env._stepping:
-            return original(force)
-        # Inside robosuite's substep loop the state was just forwarded and nothing moved since.
-        sim.forward = _no_forward
-        try:
-            return original(force)
-        finally:
-            del sim.forward  # back to MjSim.forward
-
-    return update
-
-
-def _no_forward() -> None:
-    return None
 
 
 def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:
