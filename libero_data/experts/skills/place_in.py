@@ -301,13 +301,24 @@ def _insert_from_side(ctx: Context, site: Site, region: str) -> Actions:
     side = np.array([-out[1], out[0]])
     width = float(np.abs(side) @ half[:2])
     shifts = sorted(np.linspace(-0.8 * width, 0.8 * width, 17), key=abs)
+    # The object itself must fit too: a wide pan slid in off-centre catches on a side wall.
+    from scipy.spatial import cKDTree
+
+    walls = cKDTree(others) if len(others) else None
+    shape = scene.points(obj) - scene.pos(obj)
     for depth in np.arange(depth_max - reach_in, 0.0, -0.005):
         for shift in shifts:
             body = np.array([*(face - out * depth + side * shift), body_z])
             eef = body + body_to_eef
-            if hand_collisions(others, eef, mat, opening=opening, margin=0.004) == 0:
-                chosen = (body, eef)
-                break
+            if hand_collisions(others, eef, mat, opening=opening, margin=0.004) != 0:
+                continue
+            if (
+                walls is not None
+                and np.isfinite(walls.query(shape + body, distance_upper_bound=0.006)[0]).any()
+            ):
+                continue
+            chosen = (body, eef)
+            break
         if chosen is not None:
             break
     if chosen is None:
