@@ -190,9 +190,14 @@ def wall_in_fresh_process(args: argparse.Namespace, workers: int, render_threads
 def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> list[float]:
     """Resident MiB of the generating process after each of ``episodes`` episodes of one task.
 
-    ``--workers 1`` searches and renders in this process, so it is the worker here.
+    ``--workers 1`` searches and renders in this process, so it is the worker here; like the
+    ``libero-data generate`` command in that case (and every pool worker), it first caps
+    glibc's malloc arenas (see ``libero_data.pipeline.memory``).
     """
     from libero_data.pipeline.generate import generate, resolve_request
+    from libero_data.pipeline.memory import limit_malloc_arenas
+
+    limit_malloc_arenas()
 
     request = resolve_request(suite, [str(task)], episodes_per_task=episodes, image_size=size, seed=seed)
     out = Path(tempfile.mkdtemp(prefix="bench-generate-mem-")) / "d"
