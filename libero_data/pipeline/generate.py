@@ -215,7 +215,7 @@ class EnvCache:
         from libero_data.sim import EnvConfig, LiberoEnv
 
         key = (str(task.suite), int(task.index), int(image_size))
-        if self._pair is None or self._key != key:
+        if self._key != key:  # None while nothing is built
             self.close()
             env = LiberoEnv(task, EnvConfig(image_size=image_size))
             self._pair, self._key = (env, Expert(env, ExpertConfig())), key
