@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import fcntl
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -14,14 +16,41 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 
+def _built_once(tmp_path_factory: pytest.TempPathFactory, name: str, make: Callable[[Path], Path]) -> Path:
+    """``make(folder)`` run once per test run, even with pytest-xdist's worker processes.
+
+    Under xdist each worker has its own temporary folder inside one shared by the run; the
+    first worker to ask builds the fixture there (holding a file lock) and the others wait
+    and reuse it. A failed build is remembered so the other workers fail at once with its
+    message instead of building again.
+    """
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    out, done, failed = root / name, root / f"{name}.done", root / f"{name}.failed"
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if failed.exists():
+            pytest.fail(f"building the shared fixture {name!r} failed in another worker: {failed.read_text()}")
+        if not done.exists():
+            try:
+                make(out)
+            except BaseException as error:
+                failed.write_text(str(error)[-3000:])
+                raise
+            done.touch()
+    return out
+
+
 @pytest.fixture(scope="session")
 def tiny_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two libero_goal tasks, one expert episode each, 64x64 images (~1.5 min to make); shared
-    by the pipeline and benchmark tests."""
-    return make_tiny_dataset(tmp_path_factory.mktemp("tiny") / "dataset")
+    by the pipeline and benchmark tests, and read-only to them."""
+    return _built_once(tmp_path_factory, "tiny_dataset", make_tiny_dataset)
 
 
 @pytest.fixture(scope="session")
 def procedural_suite(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A generated two-task procedural suite with its dataset (a few minutes to make)."""
-    return make_procedural_suite(tmp_path_factory.mktemp("procedural") / "p")
+    """A generated two-task procedural suite with its dataset (a few minutes to make);
+    read-only to the tests."""
+    return _built_once(tmp_path_factory, "procedural_suite", make_procedural_suite)

@@ -57,6 +57,7 @@ def test_lifelong_benchmark(tmp_path: Path, tiny_dataset: Path, monkeypatch: pyt
 
 
 @pytest.mark.sim
+@pytest.mark.xdist_group("procedural")  # with the other readers of the shared procedural suite
 def test_procedural_tasks(tmp_path: Path, procedural_suite: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("LIBERO_DATA_NOTEBOOK_PROCEDURAL", str(procedural_suite))
     run_notebook(NOTEBOOKS / "03_procedural_tasks.ipynb", tmp_path)

@@ -18,7 +18,9 @@ import pytest
 
 from libero_bench import metrics
 
-pytestmark = pytest.mark.sim
+# One xdist worker runs this module (its run is built once) and the other Ray test: two local
+# Ray instances at once would crowd 2 cores and memory.
+pytestmark = [pytest.mark.sim, pytest.mark.xdist_group("ray")]
 
 #: The smoke preset, shortened: 2 tasks x (epochs 0, 1) x 2 rollouts + 2 after-task rollouts.
 RUN_ARGS = [

@@ -139,6 +139,7 @@ def test_bad_input_fails_cleanly(tmp_path: Path) -> None:
     assert result.returncode == 2 and "not empty" in result.stderr
 
 
+@pytest.mark.xdist_group("procedural")  # with the other readers of the shared procedural suite
 def test_load_dataset_reads_a_dataset_regenerated_at_the_same_path(
     tiny_dataset: Path, procedural_suite: Path, tmp_path: Path
 ) -> None:

@@ -9,7 +9,8 @@ import pytest
 from libero_data.pipeline.validate import validate
 from tests.pipeline.conftest import TINY, data_table, run_cli
 
-pytestmark = pytest.mark.sim
+# The same xdist worker as tests/bench/test_bench_run.py, so two local Ray instances never overlap.
+pytestmark = [pytest.mark.sim, pytest.mark.xdist_group("ray")]
 
 
 def test_ray_executor_writes_the_same_dataset_as_local_workers(tiny_dataset: Path, tmp_path: Path) -> None:

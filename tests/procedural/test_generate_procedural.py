@@ -9,7 +9,9 @@ import pytest
 
 from tests.tiny_data import PROCEDURAL, run_cli
 
-pytestmark = pytest.mark.sim
+# Every test that reads the session's procedural suite runs on one xdist worker: the resume test
+# below runs the same command on it again, which rewrites the suite's files in place.
+pytestmark = [pytest.mark.sim, pytest.mark.xdist_group("procedural")]
 
 ARGS = PROCEDURAL
 
