@@ -31,7 +31,9 @@ def _built_once(tmp_path_factory: pytest.TempPathFactory, name: str, make: Calla
     with open(root / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if failed.exists():
-            pytest.fail(f"building the shared fixture {name!r} failed in another worker: {failed.read_text()}")
+            pytest.fail(
+                f"building the shared fixture {name!r} failed in another worker: {failed.read_text()}"
+            )
         if not done.exists():
             try:
                 make(out)
