@@ -34,6 +34,8 @@ def run_cli(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str
 
 
 def make_tiny_dataset(out: Path) -> Path:
+    # One worker (the default): the Ray and kill-and-resume tests run two and compare their
+    # datasets with this one, which is what shows the worker count changes nothing.
     result = run_cli("generate", *TINY, "--out", str(out))
     assert result.returncode == 0, result.stderr[-3000:]
     return out
@@ -55,6 +57,6 @@ PROCEDURAL = [
 
 
 def make_procedural_suite(out: Path) -> Path:
-    result = run_cli("generate", *PROCEDURAL, "--out", str(out))
+    result = run_cli("generate", *PROCEDURAL, "--out", str(out), "--workers", "2")
     assert result.returncode == 0, result.stderr[-3000:]
     return out
