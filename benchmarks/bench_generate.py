@@ -264,16 +264,19 @@ def table(r: dict[str, Any], walls: dict[str, float], cores: int, args: argparse
     for stage in STAGES:
         lines.append(f"| {stage} | {split[stage]:.1f} | {split[stage] / wall:.1%} |")
     startup = split["environment construction"]
+    episode_work = wall - startup
+    per_task = startup / len(args.tasks)  # one worker builds each task's environment once
+    per_episode = episode_work / max(r["episodes"], 1)
     rest = sum(v for k, v in split.items() if k not in ("physics", "rendering", "environment construction"))
     lines += [
         f"| **all but physics and rendering, per episode** (start-up excluded: share of the "
-        f"{wall - startup:.1f} s of episode work) | {rest:.1f} | **{rest / (wall - startup):.1%}** (target ≤ 10%) |",
+        f"{episode_work:.1f} s of episode work) | {rest:.1f} | **{rest / episode_work:.1%}** (target ≤ 10%) |",
         f"| all but physics and rendering over this whole run, start-up included | {rest + startup:.1f} | "
         f"{(rest + startup) / wall:.1%} |",
         "",
-        f"Start-up is {startup / max(len(args.tasks), 1):.1f} s of environment construction per task and worker; "
-        f"over a task of 50 episodes at this run's pace ({(wall - startup) / max(r['episodes'], 1):.0f} s each) "
-        f"that is {startup / len(args.tasks) / (startup / len(args.tasks) + 50 * (wall - startup) / max(r['episodes'], 1)):.1%} "
+        f"Start-up is {per_task:.1f} s of environment construction per task and worker; "
+        f"over a task of 50 episodes at this run's pace ({per_episode:.0f} s each) "
+        f"that is {per_task / (per_task + 50 * per_episode):.1%} "
         "of the wall time.",
         "",
         f"Worker scaling, each run in a fresh process (llvmpipe reads its thread count once per "
