@@ -276,18 +276,23 @@ WRIST_HALF = 0.055
 
 
 def hand_collisions(
-    points: np.ndarray, pos: np.ndarray, mat: np.ndarray, opening: float = 0.0, margin: float = 0.0
+    points: np.ndarray,
+    pos: np.ndarray,
+    mat: np.ndarray,
+    opening: float = 0.0,
+    margin: float = 0.0,
+    fingers: bool = True,
 ) -> int:
     """How many ``points`` the gripper would occupy at ``pos``/``mat`` (fingers ``opening`` apart).
 
     The gripper is modelled as boxes in its own frame (x closing, z approach): two fingers
     from the tips up to the palm, the hand above them and the wrist link above the hand,
-    each grown by ``margin``.
+    each grown by ``margin``. ``fingers=False`` counts the hand and wrist only.
     """
     local = (np.asarray(points) - pos) @ mat
     x, y, z = local[:, 0], local[:, 1], -local[:, 2]  # z: height above the grip site
     m = margin
-    fingers = (
+    in_fingers = (
         (np.abs(x) > opening / 2 - m)
         & (np.abs(x) < opening / 2 + FINGER_THICKNESS + m)
         & (np.abs(y) < FINGER_HALF_WIDTH + m)
@@ -301,4 +306,6 @@ def hand_collisions(
         & (z < HAND_TOP)
     )
     wrist = (np.abs(x) < WRIST_HALF + m) & (np.abs(y) < WRIST_HALF + m) & (z >= HAND_TOP) & (z < WRIST_TOP)
-    return int((fingers | hand | wrist).sum())
+    if not fingers:
+        return int((hand | wrist).sum())
+    return int((in_fingers | hand | wrist).sum())

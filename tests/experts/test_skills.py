@@ -16,7 +16,9 @@ CASES = {
     "libero_object/0": ["pick", "place_in"],  # into a basket
     "libero_spatial/0": ["pick", "place_on"],  # a bowl onto a plate
     "libero_spatial/9": ["pick", "place_on"],  # off a cabinet onto a far plate: held on its near rim
-    "libero_goal/0": ["open_drawer"],
+    "libero_goal/0": ["open_drawer"],  # a middle drawer: grasped
+    "libero_90/6": ["open_drawer"],  # a bottom drawer 4.6 cm above the table: hooked
+    "libero_goal/5": ["push"],  # a plate, its back to a cabinet: dragged from inside its rim
     "libero_goal/7": ["turn_on"],
     "libero_90/33": ["close_door"],
     "libero_90/73": ["pick", "place_in"],  # a book upright into a narrow caddy slot
@@ -75,3 +77,34 @@ def test_same_seed_same_episode_other_seed_other_episode() -> None:
     assert a.success and b.success and c.success
     np.testing.assert_array_equal(a.actions, b.actions)
     assert a.actions.shape != c.actions.shape or not np.array_equal(a.actions, c.actions)
+
+
+def test_drawer_strategy_follows_the_room_around_the_handle() -> None:
+    """Grasp where the hand fits; hook a handle with the table close below or nothing above."""
+    from libero_data.experts.motion import Motion
+    from libero_data.experts.skills.articulation import part_in
+    from libero_data.experts.skills.base import Context
+    from libero_data.experts.skills.drawer import _clear_above, _grasp_pitches, _handle
+
+    seen = {}
+    for ref, region in [
+        ("libero_90/6", "wooden_cabinet_1_bottom_region"),
+        ("libero_goal/0", "wooden_cabinet_1_middle_region"),
+        ("libero_90/7", "wooden_cabinet_1_top_region"),
+    ]:
+        task = get_task(ref)
+        with LiberoEnv(task, EnvConfig(cameras=())) as env:
+            expert = Expert(env)
+            env.reset(task.init_states()[0], seed=0, settle=20, render=False)
+            rng = np.random.default_rng(0)
+            motion = Motion(expert.scene, expert.style(rng), rng)
+            ctx = Context(scene=expert.scene, motion=motion, rng=rng, problem=env.problem)
+            part = part_in(expert.scene, region)
+            centre, out, bar = _handle(ctx, part)
+            seen[ref] = (
+                _grasp_pitches(ctx, part, centre, out, bar),
+                _clear_above(ctx, part, centre, out, bar),
+            )
+    assert seen["libero_90/6"] == ([], False)  # the hand meets the table or the bar above: hook
+    assert seen["libero_goal/0"] == ([0.0], False)  # level grasp fits (the plate nearby moves)
+    assert seen["libero_90/7"][1] is True  # a top drawer: hooked from above

@@ -31,6 +31,8 @@ class Push(Skill):
         atom = Atom("On", (obj, target))
         if (yield from _drag(ctx, obj, goal, atom)):
             return True
+        if _dish_like(ctx, obj) and (yield from _press_drag(ctx, obj, goal, atom)):
+            return True
         ctx.motion.gripper = CLOSE
         useless: set[tuple[float, float]] = set()
         for _ in range(8):
@@ -106,6 +108,56 @@ def _drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions:
         target = np.array([here[0] + step[0], here[1] + step[1], grasp.pos[2]])
         yield from ctx.motion.move(target, grasp.mat, speed=0.08, tol=0.004, max_steps=20)
     yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
+    yield from lift(ctx, scene.eef_pos()[2] + 0.06)
+    return bool(scene.env.holds(atom))
+
+
+def _dish_like(ctx: Context, obj: str) -> bool:
+    """Flat and wide (a plate): closed finger tips fit inside its rim."""
+    lo, hi = ctx.scene.aabb(obj)
+    return bool(hi[2] - lo[2] < 0.03 and min(hi[:2] - lo[:2]) > 0.12)
+
+
+#: Where the finger tips go down inside a dish: this far in from its rim, on the side
+#: facing the goal (m).
+DISH_INSET = 0.06
+
+
+def _press_drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions:
+    """Closed finger tips down inside a dish near its far rim, pressed onto its floor, drive it
+    toward the goal: they push the rim from inside, so nothing needs room behind the dish
+    (a plate against a cabinet) and the arm cannot ride over the rim.
+
+    On ``libero_goal/5`` (plate to the stove's front, its back to a cabinet) this moved the
+    plate on 7 of 8 inits, where strokes from behind managed 24 of 50. Each stroke is re-aimed
+    from where the dish is. Randomised: the press depth and inset. False when it did not get
+    there in 6 strokes.
+    """
+    scene = ctx.scene
+    ctx.motion.gripper = CLOSE
+    lo, hi = scene.aabb(obj)
+    radius = float(np.max(hi[:2] - lo[:2])) / 2
+    floor = float(lo[2]) + 0.006
+    inset = DISH_INSET + ctx.jitter(0.005)
+    press = 0.04 + ctx.jitter(0.005)
+    for _ in range(6):
+        if scene.env.holds(atom):
+            break
+        body = scene.pos(obj)[:2]
+        way = goal - body
+        dist = float(np.linalg.norm(way))
+        way = way / max(dist, 1e-9)
+        mat = top_down(
+            wrap_half_turn(float(np.arctan2(way[1], way[0])) + np.pi / 2, yaw_of_closing(scene.eef_mat()))
+        )
+        start = np.array([*(body + way * (radius - inset)), floor + TIP_BELOW_SITE])
+        yield from lift(ctx, start[2] + 0.06)
+        yield from ctx.motion.move(start + np.array([0, 0, 0.05]), mat, tol=0.01, max_steps=120)
+        yield from ctx.motion.move(start, mat, speed=0.1, tol=0.006, max_steps=40)
+        # The tips meet the rim about 2 cm short of the inset: push the rest of the way.
+        length = min(dist + inset - 0.02, 0.25)
+        end = start + np.array([*(way * length), -press])
+        yield from ctx.motion.move(end, mat, speed=0.08, tol=0.008, max_steps=100)
     yield from lift(ctx, scene.eef_pos()[2] + 0.06)
     return bool(scene.env.holds(atom))
 
