@@ -6,6 +6,7 @@ import logging
 
 import numpy as np
 
+from libero_data.experts.geometry import approach_frame
 from libero_data.experts.grasp import hand_collisions
 from libero_data.experts.motion import OPEN, Actions
 from libero_data.experts.scene import Site
@@ -31,7 +32,9 @@ class PlaceIn(Skill):
     column is open for the object's outline (a drawer pulled out is open only at its
     front), and the wrist turns the object so its outline fits the box. Covered from above
     (a microwave, a shelf's lower layer): the object is carried in from the open side, the
-    hand leading from that side, as deep as the hand fits. Randomised: the spot among the
+    hand leading from that side, as deep as the hand fits; where a hand above the object
+    does not fit (a book into a shelf layer hardly taller than it), the hand tips level and
+    slides the object in ahead of it. Randomised: the spot among the
     open ones, release height, insertion depth.
     """
 
@@ -267,18 +270,85 @@ def _entrance(ctx: Context, site: Site) -> np.ndarray:
 
 
 def _insert_from_side(ctx: Context, site: Site, region: str) -> Actions:
+    """Carry the object in through the region's open side, the hand top down on the
+    entrance side of it; where that hand does not fit (a book too tall for a shelf layer
+    with the hand above it), tip the hand to point in, the object held ahead of it."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    obj = ctx.held
+    hi = _box(site)[1]
+    out = _entrance(ctx, site)
+    # Turn the wrist so the hand (the grasp) is on the entrance side of the object.
+    grip_rel = scene.eef_pos()[:2] - scene.pos(obj)[:2]
+    turn = float(np.arctan2(out[1], out[0]) - np.arctan2(grip_rel[1], grip_rel[0]))
+    yield from lift(ctx, max(scene.eef_pos()[2], hi[2] + 0.1))
+    yield from turn_wrist(ctx, turn)
+    slide = _slide_in_pose(ctx, site, out)
+    if slide is None and _lower_when_tipped(ctx, site):
+        yield from _point_in(ctx, out, hi[2] + 0.15)
+        slide = _slide_in_pose(ctx, site, out)
+    if slide is None:
+        raise SkillFailed(f"the hand does not fit into {region}")
+    return (yield from _slide_in(ctx, out, *slide))
+
+
+def _lower_when_tipped(ctx: Context, site: Site) -> bool:
+    """Whether tipping the hand level would leave the held object lower than it stands now,
+    and lower than the region is tall (a book pinched across its thickness: its width
+    becomes its height). A pan held by its handle would only stand taller."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    pts = scene.points(ctx.held)
+    lo, hi = _box(site)
+    # Tipping about the closing axis turns the hand's other horizontal axis upright.
+    tipped = float(np.ptp(pts @ scene.eef_mat()[:, 1]))
+    return tipped < float(np.ptp(pts[:, 2])) and tipped + 0.01 < float(hi[2] - lo[2])
+
+
+def _point_in(ctx: Context, out: np.ndarray, height: float) -> Actions:
+    """Tip the hand, object held, from top down to level and pointing against ``out``.
+
+    First the wrist turns the fingers' closing axis across the way in, then the hand tips in
+    15-degree steps in place, so the object turns about its grasp without swinging.
+    """
+    assert ctx.held is not None
+    scene = ctx.scene
+    yield from lift(ctx, height)
+    across = np.array([-out[1], out[0], 0.0])
+    inward = np.array([-out[0], -out[1], 0.0])
+    closing = scene.eef_mat()[:, 0]
+    yaw_now = float(np.arctan2(closing[1], closing[0]))
+    turn = (float(np.arctan2(across[1], across[0])) - yaw_now + np.pi / 2) % np.pi - np.pi / 2
+    # Tipping turns "beyond the object's middle, inward" into "above it": a grasp off the
+    # middle must end up on the upper side, or the hand hangs below the object and hits the
+    # floor it is slid along. Half a turn more puts it there.
+    offset = scene.eef_pos()[:2] - scene.points(ctx.held)[:, :2].mean(0)
+    c, s = np.cos(turn), np.sin(turn)
+    if (np.array([[c, -s], [s, c]]) @ offset) @ inward[:2] < 0:
+        turn += np.pi
+    yield from turn_wrist(ctx, turn)
+    closing = scene.eef_mat()[:, 0]
+    closing = across if closing @ across >= 0 else -across
+    down = np.array([0.0, 0.0, -1.0])
+    here = scene.eef_pos()
+    for k in range(1, 7):
+        tilt = np.deg2rad(90.0 - 15.0 * k)
+        mat = approach_frame(inward * np.cos(tilt) + down * np.sin(tilt), closing)
+        yield from ctx.motion.move(here, mat, tol=0.02, rot_tol=0.1, max_steps=30)
+
+
+def _slide_in_pose(
+    ctx: Context, site: Site, out: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float] | None:
+    """Where the grip site goes to leave the object deepest in the region with the hand as it
+    is now: (eef target, gripper orientation, face point, bottom height, reach ahead), or None
+    when the hand and object fit nowhere."""
     assert ctx.held is not None
     scene = ctx.scene
     obj = ctx.held
     lo, hi = _box(site)
     centre, half = (lo + hi) / 2, (hi - lo) / 2
-    out = _entrance(ctx, site)
     face = centre[:2] + out * float(np.abs(out) @ half[:2])
-    # Turn the wrist so the hand (the grasp) is on the entrance side of the object.
-    grip_rel = scene.eef_pos()[:2] - scene.pos(obj)[:2]
-    turn = float(np.arctan2(out[1], out[0]) - np.arctan2(grip_rel[1], grip_rel[0]))
-    yield from lift(ctx, max(scene.eef_pos()[2], hi[2] + 0.1))
-    turn = yield from turn_wrist(ctx, turn)
     mat = scene.eef_mat()
     rel, hang = held_offset(ctx)
     body_to_eef = -(mat @ rel)
@@ -322,11 +392,24 @@ def _insert_from_side(ctx: Context, site: Site, region: str) -> Actions:
         if chosen is not None:
             break
     if chosen is None:
-        log.debug(
-            "insert into %s: out=%s face=%s body_to_eef=%s floor=%.3f", region, out, face, body_to_eef, floor
-        )
-        raise SkillFailed(f"the hand does not fit into {region}")
-    body, eef = chosen
+        log.debug("insert: out=%s face=%s body_to_eef=%s floor=%.3f", out, face, body_to_eef, floor)
+        return None
+    return chosen[1], mat, face, bottom, reach_in
+
+
+def _slide_in(
+    ctx: Context,
+    out: np.ndarray,
+    eef: np.ndarray,
+    mat: np.ndarray,
+    face: np.ndarray,
+    bottom: float,
+    reach_in: float,
+) -> Actions:
+    """Bring the object level with the entrance, slide it in to ``eef``, let go, back out."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    body = scene.pos(ctx.held) + (eef - scene.eef_pos())
     outside = body[:2] + out * (float(np.linalg.norm(body[:2] - face)) + reach_in + 0.06)
     yield from carry_to(ctx, outside, bottom, mat)
     # About 3 mm per step at this speed: allow for the whole way in (a long-handled pan
