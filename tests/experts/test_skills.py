@@ -25,6 +25,7 @@ CASES = {
     "libero_90/42": ["pick", "place_in"],  # a pan by its handle, sideways under a shelf
     "libero_90/40": ["pick", "place_in"],  # a wide pan slid in between a shelf's side walls
     "libero_90/86": ["pick", "place_in"],  # a book too tall for a shelf layer: slid in on edge
+    "libero_90/89": ["pick", "place_in"],  # a book under a 7-cm layer: laid flat, dragged in
     "libero_90/32": ["pick", "place_in"],  # a tall bottle laid down in a shallow drawer
     "libero_90/13": ["pick", "place_on"],  # a bowl at the far edge of the arm's reach
     "libero_90/36": ["pick", "place_on"],  # a 2 g thin-walled bowl: pre-shaped hand pinches its wall
