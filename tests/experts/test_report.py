@@ -108,3 +108,17 @@ def test_the_fingerprint_leaves_out_the_tables() -> None:
     tables = P(report.write_report.__code__.co_filename).resolve()
     root = P(report.__file__).resolve().parents[1]
     assert tables.relative_to(root).parts[0] not in ("experts", "sim")
+
+
+def test_the_fingerprint_ignores_comments_and_docstrings(tmp_path) -> None:
+    from libero_data.experts.report import code_digest
+
+    def digest(text: str) -> str:
+        (tmp_path / "m.py").write_text(text)
+        return code_digest([tmp_path / "m.py"], tmp_path)
+
+    base = digest('"""Module."""\n\ndef f(x):\n    """Doc."""\n    return x + 1  # one\n')
+    assert digest('"""Other words."""\n\n\ndef f(x):\n    """More."""\n    return (x + 1)\n') == base
+    assert digest("def f(x):\n    return x + 1\n") == base
+    assert digest("def f(x):\n    return x + 2\n") != base  # the code changed
+    assert digest("def f(x):\n    '''Doc.'''\n\n    def g():\n        pass\n    return x + 1\n") != base

@@ -165,7 +165,8 @@ def _hook_open(ctx: Context, part: Part, region: str) -> Actions:
 @SKILLS.register("open_drawer")
 class OpenDrawer(Skill):
     """``open_drawer(region)``: grasp the handle from the front (tilted down) and pull it out;
-    where no grasp fits or the grasp fails, hook the handle from above and drag it out.
+    hook it from above and drag it out instead where nothing stands above the handle (a top
+    drawer), where no grasp fits (a bottom drawer) or when the grasp fails.
 
     Randomised: approach tilt, standoff and the extra pull beyond the open threshold.
     """
