@@ -685,10 +685,32 @@ def card_cmd(
     with report.open() as f:
         for row in csv.DictReader(f):
             rates[row["name"]] = (int(row["successes"]), int(row["episodes"]))
-    text = suite_card(suite, rates, episodes_per_task=episodes_per_task, image_size=image_size, seed=seed)
+    text = suite_card(
+        suite,
+        rates,
+        episodes_per_task=episodes_per_task,
+        image_size=image_size,
+        seed=seed,
+        measured_by=_report_settings(report.with_suffix(".jsonl")),
+    )
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text)
     _console().print(f"wrote {out}", markup=False)
+
+
+def _report_settings(journal: Path) -> dict[str, str] | None:
+    """Expert code, init states and seed from an expert report's journal header, if it has one."""
+    import json
+
+    try:
+        settings = json.loads(journal.read_text().split("\n", 1)[0])["settings"]
+        return {
+            "expert code": str(settings["expert"]),
+            "init states per task": str(settings["inits"]),
+            "seed": str(settings["seed"]),
+        }
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # no journal beside the table (or not one): the card just says less
 
 
 def main() -> None:

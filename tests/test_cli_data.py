@@ -80,3 +80,49 @@ def test_show_writes_both_cameras_side_by_side(tmp_path: Path) -> None:
     picture = np.asarray(Image.open(out))
     assert picture.shape == (64, 128, 3)
     assert picture[:, :64].std() > 10 and picture[:, 64:].std() > 10
+
+
+def test_card_states_the_expert_report_it_was_rendered_from(tmp_path: Path) -> None:
+    header = {"settings": {"inits": 50, "seed": 0, "expert": "0123456789ab", "config": "", "versions": {}}}
+    (tmp_path / "expert_report.jsonl").write_text(json.dumps(header) + "\n")
+    (tmp_path / "expert_report.csv").write_text(
+        "suite,index,name,episodes,successes,rate,mean_length,seconds_per_episode,failures\n"
+        "libero_goal,5,push_the_plate_to_the_front_of_the_stove,50,24,0.480,814.4,10.1,x (26)\n"
+    )
+    out = tmp_path / "card.md"
+    result = cli(
+        "card",
+        "--suite",
+        "libero_goal",
+        "--expert-report",
+        str(tmp_path / "expert_report.csv"),
+        "--out",
+        str(out),
+    )
+    assert result.returncode == 0, result.stderr
+    text = out.read_text()
+    assert "| 48% (24/50) |" in text
+    assert "| expert report: expert code | 0123456789ab |" in text
+    assert (
+        "as measured by the expert report (expert code 0123456789ab, init states per task 50, seed 0)."
+        in text
+    )
+    # Without its journal the table still makes a card; it just cannot name the expert code.
+    (tmp_path / "expert_report.jsonl").unlink()
+    assert (
+        cli(
+            "card",
+            "--suite",
+            "libero_goal",
+            "--expert-report",
+            str(tmp_path / "expert_report.csv"),
+            "--out",
+            str(out),
+        ).returncode
+        == 0
+    )
+    assert "expert code" not in out.read_text()
+    missing = cli(
+        "card", "--suite", "libero_goal", "--expert-report", str(tmp_path / "nope.csv"), "--out", str(out)
+    )
+    assert missing.returncode != 0 and "nope.csv does not exist" in missing.stderr + missing.stdout

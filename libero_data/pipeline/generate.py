@@ -825,11 +825,13 @@ def suite_card(
     episodes_per_task: int = 50,
     image_size: int = 128,
     seed: int = 0,
+    measured_by: dict[str, str] | None = None,
 ) -> str:
     """The card ``generate --suite`` writes with these settings, before any data exists.
 
     ``rates`` maps task names to (successes, attempts) of the expert (e.g. from
     ``libero-data expert-report``); frame counts are only known once generated.
+    ``measured_by`` (the report's expert code, init states, seed) is stated beside them.
     """
     from libero_data.bddl.writer import _formula
     from libero_data.cards import CardTask, render_card
@@ -867,8 +869,10 @@ def suite_card(
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         **{f"version: {k}": v for k, v in vers.items()},
+        **{f"expert report: {k}": v for k, v in (measured_by or {}).items()},
     }
     stored = min(episodes_per_task, STORED_INITS)
+    by = ", ".join(f"{k} {v}" for k, v in (measured_by or {}).items())
     return render_card(
         title=f"libero-data · {suite.name}",
         summary=(
@@ -888,5 +892,8 @@ def suite_card(
         sim_state_width=sim_state_width(request),
         settings=settings,
         start_note=f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k).",
-        expert_note="Here: successes over the first attempts from the stored init states, as measured by the expert report.",
+        expert_note=(
+            "Here: successes over the first attempts from the stored init states, as measured by the expert report"
+            + (f" ({by})." if by else ".")
+        ),
     )
