@@ -90,15 +90,11 @@ def test_card_states_the_expert_report_it_was_rendered_from(tmp_path: Path) -> N
         "libero_goal,5,push_the_plate_to_the_front_of_the_stove,50,24,0.480,814.4,10.1,x (26)\n"
     )
     out = tmp_path / "card.md"
-    result = cli(
-        "card",
-        "--suite",
-        "libero_goal",
-        "--expert-report",
-        str(tmp_path / "expert_report.csv"),
-        "--out",
-        str(out),
-    )
+
+    def card(report: Path) -> subprocess.CompletedProcess[str]:
+        return cli("card", "--suite", "libero_goal", "--expert-report", str(report), "--out", str(out))
+
+    result = card(tmp_path / "expert_report.csv")
     assert result.returncode == 0, result.stderr
     text = out.read_text()
     assert "| 48% (24/50) |" in text
@@ -109,20 +105,7 @@ def test_card_states_the_expert_report_it_was_rendered_from(tmp_path: Path) -> N
     )
     # Without its journal the table still makes a card; it just cannot name the expert code.
     (tmp_path / "expert_report.jsonl").unlink()
-    assert (
-        cli(
-            "card",
-            "--suite",
-            "libero_goal",
-            "--expert-report",
-            str(tmp_path / "expert_report.csv"),
-            "--out",
-            str(out),
-        ).returncode
-        == 0
-    )
+    assert card(tmp_path / "expert_report.csv").returncode == 0
     assert "expert code" not in out.read_text()
-    missing = cli(
-        "card", "--suite", "libero_goal", "--expert-report", str(tmp_path / "nope.csv"), "--out", str(out)
-    )
+    missing = card(tmp_path / "nope.csv")
     assert missing.returncode != 0 and "nope.csv does not exist" in missing.stderr + missing.stdout
