@@ -8,8 +8,8 @@ One in-process ``generate`` run (``--workers 1``) over ``--tasks`` of ``--suite`
 - **rendering**: ``LiberoEnv.render`` (MuJoCo/OpenGL, both cameras of every kept frame);
 - **frame assembly**: the rest of rendering an episode from its states (restoring each
   state, building the observation, checking the goal);
-- **encoding**: LeRobot's video encoding: handing frames to its streaming encoder and
-  waiting for the encoder threads to finish an episode (``StreamingVideoEncoder``); the
+- **encoding**: video encoding: handing frames to the streaming encoder and waiting for
+  its threads to finish an episode (``libero_data.record.encoder``); the
   threads encode while later frames render, so only what is left at the end counts here;
 - **writing**: the rest of writing an episode (LeRobot's frame buffer, parquet, MCAP,
   fsync);
@@ -91,12 +91,11 @@ class Timers:
 
 
 def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: int) -> dict[str, Any]:
-    from lerobot.datasets.video_utils import StreamingVideoEncoder
-
     import libero_data.pipeline.generate as gen
     import libero_data.record.shard as shard
     from libero_data.experts.expert import Expert
     from libero_data.pipeline.generate import generate, resolve_request
+    from libero_data.record.encoder import EpisodeVideoEncoder
     from libero_data.sim.env import LiberoEnv
 
     timers = Timers()
@@ -110,8 +109,8 @@ def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: 
         timers.wrap(LiberoEnv, "set_state", "assembly", when=in_shard),
         timers.wrap(LiberoEnv, "observe", "assembly", when=in_shard),
         timers.wrap(LiberoEnv, "success", "assembly", when=in_shard),
-        timers.wrap(StreamingVideoEncoder, "feed_frame", "encoding"),
-        timers.wrap(StreamingVideoEncoder, "finish_episode", "encoding"),
+        timers.wrap(EpisodeVideoEncoder, "feed_frame", "encoding"),
+        timers.wrap(EpisodeVideoEncoder, "finish_episode", "encoding"),
         timers.wrap(gen, "_publish", "publishing"),
         timers.wrap(LiberoEnv, "__init__", "construction"),
     ]
@@ -246,11 +245,11 @@ def memory_table(trace: list[float], args: argparse.Namespace) -> str:
     )
 
 
-def table(r: dict[str, Any], walls: dict[str, float], cores: int, args: argparse.Namespace) -> str:
+def split_table(r: dict[str, Any], args: argparse.Namespace) -> str:
     wall, split = r["wall"], r["split"]
     lines = [
         f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
-        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats}` ({len(args.tasks)} tasks × "
+        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats} --part split` ({len(args.tasks)} tasks × "
         f"{args.episodes} episodes, two {args.size}² cameras, one process; the run with the median wall time of "
         f"{args.repeats}).",
         "",
@@ -278,6 +277,14 @@ def table(r: dict[str, Any], walls: dict[str, float], cores: int, args: argparse
         f"over a task of 50 episodes at this run's pace ({per_episode:.0f} s each) "
         f"that is {per_task / (per_task + 50 * per_episode):.1%} "
         "of the wall time.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def scaling_table(walls: dict[str, float], cores: int, args: argparse.Namespace) -> str:
+    lines = [
+        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
+        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats} --part scaling`.",
         "",
         f"Worker scaling, each run in a fresh process (llvmpipe reads its thread count once per "
         f"process), medians of {args.repeats} runs taking turns; this machine has {cores} cores. One "
@@ -310,6 +317,13 @@ def main() -> None:
         default=0,
         help="Only measure the generating process's memory over this many episodes of the first task.",
     )
+    parser.add_argument(
+        "--part",
+        choices=("split", "scaling", "all"),
+        default="all",
+        help="The time split of one worker (section Generation), worker scaling (section "
+        "Generation scaling), or both.",
+    )
     parser.add_argument("--results", type=Path, help="RESULTS.md to update")
     parser.add_argument("--wall-only", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -329,28 +343,33 @@ def main() -> None:
 
             replace_section(args.results, "Generation memory", text)
         return
-    # Medians of --repeats runs: the split run with the median wall time, and median walls.
-    splits = sorted(
-        (
-            measure_split(args.suite, args.tasks, args.episodes, args.size, args.seed)
-            for _ in range(args.repeats)
-        ),
-        key=lambda r: r["wall"],
-    )
-    r = splits[len(splits) // 2]
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    configs = {"1x1": (1, 1), "1": (1, None), "2": (2, None)}
-    runs: dict[str, list[float]] = {name: [] for name in configs}
-    for _ in range(args.repeats):  # the configurations take turns, so load changes hit all alike
-        for name, (workers, threads) in configs.items():
-            runs[name].append(wall_in_fresh_process(args, workers, threads))
-    walls = {name: statistics.median(v) for name, v in runs.items()}
-    text = table(r, walls, cores, args)
-    print(text)
-    if args.results:
-        from benchmarks.results import replace_section
+    from benchmarks.results import replace_section
 
-        replace_section(args.results, "Generation", text)
+    if args.part in ("split", "all"):
+        # The split run with the median wall time of --repeats.
+        splits = sorted(
+            (
+                measure_split(args.suite, args.tasks, args.episodes, args.size, args.seed)
+                for _ in range(args.repeats)
+            ),
+            key=lambda r: r["wall"],
+        )
+        text = split_table(splits[len(splits) // 2], args)
+        print(text)
+        if args.results:
+            replace_section(args.results, "Generation", text)
+    if args.part in ("scaling", "all"):
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        configs = {"1x1": (1, 1), "1": (1, None), "2": (2, None)}
+        runs: dict[str, list[float]] = {name: [] for name in configs}
+        for _ in range(args.repeats):  # the configurations take turns, so load changes hit all alike
+            for name, (workers, threads) in configs.items():
+                runs[name].append(wall_in_fresh_process(args, workers, threads))
+        walls = {name: statistics.median(v) for name, v in runs.items()}
+        text = scaling_table(walls, cores, args)
+        print(text)
+        if args.results:
+            replace_section(args.results, "Generation scaling", text)
 
 
 if __name__ == "__main__":

@@ -125,22 +125,22 @@ def _write_tmp(
     sim_state_width: int,
     info: dict[str, Any],
 ) -> None:
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+    from libero_data.record.encoder import shard_dataset_class
 
-    dataset = LeRobotDataset.create(
+    dataset = shard_dataset_class().create(
         SHARD_REPO,
         fps=FPS,
         features=dataset_features(image_size, sim_state_width),
         root=tmp,
         robot_type="panda",
         use_videos=True,
-        # Frames go straight to the encoder (one thread per camera) instead of through a PNG
-        # per frame and camera; the video bytes are the same. The streaming encoder drops
-        # frames when its queue is full (it is made for live cameras), so the queue holds
-        # the whole episode, and the videos are checked below.
+        # Frames go straight to an encoder thread per camera instead of through a PNG per
+        # frame and camera (libero_data.record.encoder: LeRobot's codec settings, exact
+        # uint8 statistics, a bounded queue that waits rather than drops); the videos are
+        # still checked below.
         streaming_encoding=True,
         encoder_threads=1,
-        encoder_queue_maxsize=length + 1,
+        encoder_queue_maxsize=64,
     )
     kept: list[dict[str, Any]] = []
     for obs in frames:

@@ -54,17 +54,17 @@ def test_every_frame_is_in_both_videos(tmp_path: Path) -> None:
 
 
 def test_a_dropped_frame_fails_the_write_and_leaves_nothing(tmp_path: Path, monkeypatch) -> None:
-    from lerobot.datasets.video_utils import StreamingVideoEncoder
+    from libero_data.record.encoder import EpisodeVideoEncoder
 
-    feed = StreamingVideoEncoder.feed_frame
+    feed = EpisodeVideoEncoder.feed_frame
     calls = {"n": 0}
 
-    def dropping(self, video_key: str, image: np.ndarray) -> None:  # a full queue drops frames
+    def dropping(self, video_key: str, image: np.ndarray) -> None:  # a frame lost on the way
         calls["n"] += 1
         if calls["n"] != 7:
             feed(self, video_key, image)
 
-    monkeypatch.setattr(StreamingVideoEncoder, "feed_frame", dropping)
+    monkeypatch.setattr(EpisodeVideoEncoder, "feed_frame", dropping)
     with pytest.raises(RuntimeError, match="expected 20"):
         _write(tmp_path / "ep", _frames(20))
     assert list(tmp_path.iterdir()) == []
