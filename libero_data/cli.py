@@ -231,7 +231,10 @@ def generate_cmd(
     publish_every: Annotated[
         float,
         typer.Option(
-            "--publish-every", help="Seconds between snapshots of the growing dataset in --out.", min=0.0
+            "--publish-every",
+            help="Seconds at least between snapshots of the growing dataset in --out (longer once "
+            "a snapshot of a big dataset takes time: publishing is kept under 5% of the run).",
+            min=0.0,
         ),
     ] = 60.0,
     executor: Annotated[

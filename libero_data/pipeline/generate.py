@@ -37,6 +37,32 @@ WORK = ".libero-data"
 STORED_INITS = 50
 
 
+PUBLISH_SHARE = 0.05  # most of the run's wall time that publishing snapshots may take
+
+
+class PublishClock:
+    """When the growing dataset is next published.
+
+    A snapshot rebuilds the whole dataset from its shards (~0.25-0.4 s per episode here), so a
+    fixed interval would spend a growing share of the run publishing: with 500 episodes and a
+    60-s interval, most of it. The wait after a publish is therefore at least ``every``
+    seconds and at least long enough that publishing takes no more than ``share`` of the time.
+    """
+
+    def __init__(self, every: float, share: float = PUBLISH_SHARE, now: float | None = None):
+        self.every = every
+        self.share = share
+        self.next = (time.monotonic() if now is None else now) + every
+
+    def due(self, now: float | None = None) -> bool:
+        return (time.monotonic() if now is None else now) >= self.next
+
+    def published(self, started: float, ended: float) -> None:
+        """Record a publish that ran from ``started`` to ``ended`` (monotonic seconds)."""
+        took = ended - started
+        self.next = ended + max(self.every, took * (1 - self.share) / self.share)
+
+
 class GenerateError(ValueError):
     """Bad generation input (one sentence, for the command line)."""
 
@@ -461,7 +487,7 @@ def generate(
             on_progress(progress)
 
         jobs = _jobs(request, slots, status, workers)
-        last_publish = time.monotonic()
+        clock = PublishClock(publish_every)
         published = _published_count(out)
 
         def note(key: str, success: bool, attempts: int) -> None:
@@ -473,14 +499,15 @@ def generate(
                 on_progress(progress)
 
         def maybe_publish(force: bool = False) -> None:
-            nonlocal last_publish, published
-            if not force and time.monotonic() - last_publish < publish_every:
+            nonlocal published
+            if not force and not clock.due():
                 return
+            started = time.monotonic()
             count = _publish(out, request, slots, status, width, command=command)
             if count != published:
                 published = count
             progress.published = count
-            last_publish = time.monotonic()
+            clock.published(started, time.monotonic())
             if on_progress:
                 on_progress(progress)
 

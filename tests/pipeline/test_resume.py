@@ -73,3 +73,18 @@ def test_changed_settings_are_refused(tiny_dataset: Path) -> None:
     result = run_cli("generate", *args, "--out", str(tiny_dataset), timeout=120)
     assert result.returncode == 2
     assert "different settings (seed)" in result.stderr
+
+
+def test_publishing_is_spaced_to_a_bounded_share_of_the_run() -> None:
+    from libero_data.pipeline.generate import PublishClock
+
+    clock = PublishClock(60.0, share=0.05, now=0.0)
+    assert not clock.due(now=59.0) and clock.due(now=60.0)
+    clock.published(60.0, 61.0)  # a quick snapshot: the interval stays as asked
+    assert not clock.due(now=120.9) and clock.due(now=121.0)
+    clock.published(121.0, 141.0)  # a 20-s snapshot: wait 19 × 20 s, so it is 5% of the time
+    assert not clock.due(now=140.9 + 380) and clock.due(now=141.0 + 380)
+    every_time = PublishClock(0.0, now=0.0)
+    assert every_time.due(now=0.0)
+    every_time.published(0.0, 0.5)
+    assert not every_time.due(now=9.9) and every_time.due(now=10.0)
