@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import json
 import logging
 import os
@@ -172,9 +173,18 @@ def _shard_path(work: Path, slot: Slot) -> Path:
     return work / "shards" / slot.key
 
 
+@functools.cache
+def _expert_code() -> str:
+    """The expert fingerprint of the code this process runs (0.2 s to compute: once)."""
+    from libero_data.experts.report import expert_fingerprint
+
+    return expert_fingerprint()
+
+
 def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot: Slot) -> dict[str, Any]:
     """Run attempts until one succeeds; the record of the kept (or last) attempt."""
     stored = task.init_states() if task.init_states_path is not None else None
+    code = _expert_code()
     failures: list[str] = []
     for attempt in range(request.max_attempts):
         reset_seed, expert_seed = episode_seeds(request.seed, f"{task.suite}/{task.name}/{slot.k}", attempt)
@@ -195,9 +205,10 @@ def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot
                 "states": episode.states,
                 "final_state": episode.final_state,
                 "plan": episode.plan,
+                "expert_code": code,
             }
         failures.append(episode.failure or "unknown")
-    return {"success": False, "attempts": request.max_attempts, "failures": failures}
+    return {"success": False, "attempts": request.max_attempts, "failures": failures, "expert_code": code}
 
 
 def _save_search(path: Path, record: dict[str, Any]) -> None:
@@ -306,6 +317,9 @@ def run_job(
                     "attempt": int(record["attempts"]) - 1,
                     "sim_state_dim": int(record["states"].shape[1]),
                     "plan": list(record["plan"]),
+                    # The code that searched the episode (a run resumed after an update of the
+                    # expert or simulator keeps the episodes found before it).
+                    "expert_code": record.get("expert_code", "unknown"),
                     "success": True,
                 }
                 write_shard(
@@ -752,8 +766,11 @@ def _describe(
     tasks = []
     bddl = {}
     frames = 0
+    codes: set[str] = set()
     for shard in shards:
-        frames += int(json.loads((shard / "episode.json").read_text())["length"])
+        info = json.loads((shard / "episode.json").read_text())
+        frames += int(info["length"])
+        codes.add(str(info.get("expert_code", "unknown")))
     keys_in = {p.name for p in shards}
     for position, index in enumerate(request.tasks):
         task = suite.task(index)
@@ -783,6 +800,7 @@ def _describe(
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         "complete": "yes" if complete else "no (generation still running or interrupted)",
+        "expert code": ", ".join(sorted(codes)),
         **{f"version: {k}": v for k, v in vers.items()},
     }
     manifest = suite.path / "suite.json" if suite.path is not None else None
@@ -827,6 +845,7 @@ def _describe(
     meta = {
         "request": request.to_json(),
         "versions": vers,
+        "expert_code": sorted(codes),
         "complete": complete,
         "sim_state_width": width,
         "tasks": [

@@ -67,6 +67,10 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
     meta = json.loads((tiny_dataset / "meta" / "libero.json").read_text())
     assert meta["complete"] is True and meta["request"]["seed"] == 3
     assert set(meta["versions"]) >= {"mujoco", "robosuite", "lerobot", "libero-data"}
+    from libero_data.experts.report import expert_fingerprint
+
+    assert meta["expert_code"] == [expert_fingerprint()]
+    assert f"| expert code | {expert_fingerprint()} |" in text
 
 
 def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
@@ -77,6 +81,9 @@ def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
     assert [r["episode_index"] for r in rows] == [0, 1]
     assert [r["task_name"] for r in rows] == ["open_the_middle_drawer_of_the_cabinet", "turn_on_the_stove"]
     assert all(r["success"] and r["init_index"] == 0 for r in rows)
+    from libero_data.experts.report import expert_fingerprint
+
+    assert {r["expert_code"] for r in rows} == {expert_fingerprint()}
     assert sorted(p.name for p in (tiny_dataset / "meta" / "bddl").iterdir()) == [
         "open_the_middle_drawer_of_the_cabinet.bddl",
         "turn_on_the_stove.bddl",
