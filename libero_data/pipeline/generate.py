@@ -25,12 +25,15 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from libero_data.experts.expert import ExpertConfig
 from libero_data.experts.report import episode_seeds
+
+if TYPE_CHECKING:
+    from concurrent.futures import Future
 
 log = logging.getLogger(__name__)
 
@@ -281,17 +284,38 @@ def run_job(
     """Search and render the given episode numbers of one task (runs inside a worker).
 
     ``envs`` keeps the environment for the caller's next job; without it, one is built when
-    needed and closed at the end.
+    needed and closed at the end. An episode's shard is completed (videos flushed, parquet,
+    MCAP, moved into place) in a background thread while the next episode is searched and
+    rendered: the search runs on one core and leaves the other free. An episode is reported
+    (and returned) only once its shard is on disk.
     """
-    from libero_data.record.shard import write_shard
+    from concurrent.futures import ThreadPoolExecutor
+
+    from libero_data.record.shard import render_shard
     from libero_data.tasks import get_suite
 
     request = GenerateRequest(**{**request_json, "tasks": tuple(request_json["tasks"])})
     work_dir = Path(work)
     task = get_suite(request.suite).task(task_index)
-    results = []
+    results: list[tuple[int, bool, int]] = []
     own = envs is None
     cache = EnvCache() if envs is None else envs
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shard-writer")
+    pending: tuple[Slot, dict[str, Any], Future[Path] | None] | None = None
+
+    def settle() -> None:
+        """Wait for the previous episode's shard, then report that episode."""
+        nonlocal pending
+        if pending is None:
+            return
+        slot, record, finishing = pending
+        pending = None
+        if finishing is not None:
+            wait_for_shard(finishing)
+        results.append((slot.k, bool(record["success"]), int(record["attempts"])))
+        if report is not None:
+            report(slot.key, slot.k, bool(record["success"]), int(record["attempts"]))
+
     try:
         for k in ks:
             slot = Slot(position, task_index, k)
@@ -303,6 +327,7 @@ def run_job(
                 env, expert = cache.get(task, request.image_size)
                 record = search_slot(env, expert, task, request, slot)
                 _save_search(search, record)
+            finishing = None
             if record["success"] and not shard.is_dir():
                 env, _expert = cache.get(task, request.image_size)
                 env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
@@ -322,7 +347,7 @@ def run_job(
                     "expert_code": record.get("expert_code", "unknown"),
                     "success": True,
                 }
-                write_shard(
+                finish = render_shard(
                     shard,
                     env=env,
                     states=record["states"],
@@ -334,13 +359,20 @@ def run_job(
                     sim_state_width=sim_state_width,
                     info=info,
                 )
-            results.append((k, bool(record["success"]), int(record["attempts"])))
-            if report is not None:
-                report(slot.key, k, bool(record["success"]), int(record["attempts"]))
+                finishing = writer.submit(finish)
+            settle()
+            pending = (slot, record, finishing)
+        settle()
     finally:
+        writer.shutdown(wait=True)  # an interrupted job still completes the shard in hand
         if own:
             cache.close()
     return results
+
+
+def wait_for_shard(finishing: Future[Path]) -> Path:
+    """The background completion of a shard: its path, or its error raised here."""
+    return finishing.result()
 
 
 # --------------------------------------------------------------------------------------------

@@ -11,7 +11,7 @@ import contextlib
 import json
 import os
 import shutil
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -67,14 +67,45 @@ def write_shard(
     sim_state_width: int,
     info: dict[str, Any],
 ) -> Path:
-    """Render one searched episode from its states and write it into ``out_dir``.
+    """Render one searched episode from its states and write it into ``out_dir``."""
+    return render_shard(
+        out_dir,
+        env=env,
+        states=states,
+        actions=actions,
+        final_state=final_state,
+        task=task,
+        instruction=instruction,
+        image_size=image_size,
+        sim_state_width=sim_state_width,
+        info=info,
+    )()
+
+
+def render_shard(
+    out_dir: str | Path,
+    *,
+    env: LiberoEnv,
+    states: np.ndarray,
+    actions: np.ndarray,
+    final_state: np.ndarray,
+    task: str,
+    instruction: str,
+    image_size: int,
+    sim_state_width: int,
+    info: dict[str, Any],
+) -> Callable[[], Path]:
+    """Render one searched episode from its states; returns the call that completes the shard.
 
     Each frame goes to the video encoder as soon as it is rendered, so encoding (in the
-    encoder's threads) overlaps rendering instead of following it.
+    encoder's threads) overlaps rendering instead of following it. When this returns, ``env``
+    is free again; the returned call (flushing the videos, writing parquet and MCAP, moving the
+    folder into place) needs no simulation and may run in another thread while the next
+    episode is searched. Until it has run, nothing is at ``out_dir``.
     """
     success: list[bool] = []
-    return write_frames(
-        out_dir,
+    return _start(
+        Path(out_dir),
         frames=render_frames(env, states, actions, final_state, success),
         length=len(states),
         success=success,
@@ -108,14 +139,22 @@ def write_frames(
     if length is None:
         frames = list(frames)
         length = len(frames)
-    out = Path(out_dir)
-    with atomic_folder(out) as tmp:
-        _write_tmp(tmp, frames, length, success, task, instruction, image_size, sim_state_width, info)
-    return out
+    return _start(
+        Path(out_dir),
+        frames=frames,
+        length=length,
+        success=success,
+        task=task,
+        instruction=instruction,
+        image_size=image_size,
+        sim_state_width=sim_state_width,
+        info=info,
+    )()
 
 
-def _write_tmp(
-    tmp: Path,
+def _start(
+    out: Path,
+    *,
     frames: Iterable[dict[str, Any]],
     length: int,
     success: list[bool],
@@ -124,46 +163,64 @@ def _write_tmp(
     image_size: int,
     sim_state_width: int,
     info: dict[str, Any],
-) -> None:
+) -> Callable[[], Path]:
+    """Feed every frame to a new shard in a scratch folder beside ``out``; returns the call
+    that writes the rest and renames the folder to ``out`` (the scratch folder is removed if
+    either part fails)."""
     from libero_data.record.encoder import shard_dataset_class
 
-    dataset = shard_dataset_class().create(
-        SHARD_REPO,
-        fps=FPS,
-        features=dataset_features(image_size, sim_state_width),
-        root=tmp,
-        robot_type="panda",
-        use_videos=True,
-        # Frames go straight to an encoder thread per camera instead of through a PNG per
-        # frame and camera (libero_data.record.encoder: LeRobot's codec settings, exact
-        # uint8 statistics, a bounded queue that waits rather than drops); the videos are
-        # still checked below.
-        streaming_encoding=True,
-        encoder_threads=1,
-        encoder_queue_maxsize=64,
-    )
-    kept: list[dict[str, Any]] = []
-    for obs in frames:
-        frame = frame_from_observation(obs, obs["action"], sim_state_width)
-        frame["task"] = instruction
-        dataset.add_frame(frame)
-        kept.append(obs)
-    if len(kept) != length:
-        raise ValueError(f"expected {length} frames, got {len(kept)}")
-    with quiet_datasets():
-        dataset.save_episode(parallel_encoding=False)
-        dataset.finalize()
-    _check_video_lengths(tmp, length)
-    write_episode_mcap(
-        tmp / MCAP_NAME,
-        frames=kept,
-        task=task,
-        instruction=instruction,
-        success=success,
-        fps=FPS,
-        metadata={k: json.dumps(v) for k, v in info.items()},
-    )
-    (tmp / INFO_NAME).write_text(json.dumps({**info, "length": length}, sort_keys=True))
+    tmp = scratch_folder(out)
+    try:
+        dataset = shard_dataset_class().create(
+            SHARD_REPO,
+            fps=FPS,
+            features=dataset_features(image_size, sim_state_width),
+            root=tmp,
+            robot_type="panda",
+            use_videos=True,
+            # Frames go straight to an encoder thread per camera instead of through a PNG per
+            # frame and camera (libero_data.record.encoder: LeRobot's codec settings, exact
+            # uint8 statistics, a bounded queue that waits rather than drops); the videos are
+            # still checked below.
+            streaming_encoding=True,
+            encoder_threads=1,
+            encoder_queue_maxsize=64,
+        )
+        kept: list[dict[str, Any]] = []
+        for obs in frames:
+            frame = frame_from_observation(obs, obs["action"], sim_state_width)
+            frame["task"] = instruction
+            dataset.add_frame(frame)
+            kept.append(obs)
+        if len(kept) != length:
+            raise ValueError(f"expected {length} frames, got {len(kept)}")
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+    def finish() -> Path:
+        try:
+            with quiet_datasets():
+                dataset.save_episode(parallel_encoding=False)
+                dataset.finalize()
+            _check_video_lengths(tmp, length)
+            write_episode_mcap(
+                tmp / MCAP_NAME,
+                frames=kept,
+                task=task,
+                instruction=instruction,
+                success=success,
+                fps=FPS,
+                metadata={k: json.dumps(v) for k, v in info.items()},
+            )
+            (tmp / INFO_NAME).write_text(json.dumps({**info, "length": length}, sort_keys=True))
+            commit_folder(tmp, out)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return out
+
+    return finish
 
 
 def _check_video_lengths(root: Path, frames: int) -> None:
@@ -214,14 +271,25 @@ def atomic_folder(dest: Path) -> Iterator[Path]:
 
     On an exception the scratch folder is removed and ``dest`` is left as it was.
     """
-    tmp = dest.with_name(f"{dest.name}.tmp-{os.getpid()}")
-    shutil.rmtree(tmp, ignore_errors=True)  # a leftover of an earlier process with this pid
+    tmp = scratch_folder(dest)
     try:
         yield tmp
-        fsync_tree(tmp)
+        commit_folder(tmp, dest)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def scratch_folder(dest: Path) -> Path:
+    """The scratch path (not created) where ``dest`` is built by this process."""
+    tmp = dest.with_name(f"{dest.name}.tmp-{os.getpid()}")
+    shutil.rmtree(tmp, ignore_errors=True)  # a leftover of an earlier process with this pid
+    return tmp
+
+
+def commit_folder(tmp: Path, dest: Path) -> None:
+    """Flush the finished scratch folder ``tmp`` to disk and rename it to ``dest`` (replacing it)."""
+    fsync_tree(tmp)
     if dest.exists():
         shutil.rmtree(dest)
     tmp.rename(dest)

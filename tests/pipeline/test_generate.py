@@ -181,3 +181,36 @@ def test_a_worker_keeps_its_environment_between_jobs_of_the_same_task() -> None:
     assert cache.get(first, 96)[0] is not env2  # another image size: rebuilt too
     cache.close()
     cache.close()  # closing twice is harmless
+
+
+def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Path, tmp_path: Path) -> None:
+    """Shards are completed in a background thread while the next episode renders; two
+    episodes of one task (the stored search of task 0, used twice) go through that path."""
+    import shutil
+
+    from libero_data.pipeline.generate import run_job
+
+    source = tiny_dataset / ".libero-data"
+    work = tmp_path / "work"
+    (work / "search").mkdir(parents=True)
+    record = next((source / "search").glob("000-00000*"))
+    for k in (0, 1):
+        shutil.copy(record, work / "search" / record.name.replace("000-00000", f"000-{k:05d}"))
+    request = json.loads((source / "request.json").read_text())
+    width = int(json.loads((source / "sim_state_width.json").read_text()))
+    on_disk: list[tuple[str, bool]] = []
+
+    def report(key: str, k: int, ok: bool, attempts: int) -> None:
+        shard = work / "shards" / key
+        on_disk.append((key, ok and (shard / "episode.json").is_file() and (shard / "episode.mcap").is_file()))
+
+    results = run_job(str(work), request, request["tasks"][0], 0, [0, 1], width, report=report)
+    assert [r[:2] for r in results] == [(0, True), (1, True)]
+    assert on_disk == [("000-00000", True), ("000-00001", True)]
+    assert not [p for p in (work / "shards").iterdir() if ".tmp" in p.name]
+    first, second = (work / "shards" / key for key, _ in on_disk)
+    ours = sorted(p.relative_to(first) for p in first.rglob("*") if p.is_file())
+    assert ours == sorted(p.relative_to(second) for p in second.rglob("*") if p.is_file())
+    for rel in ours:  # same episode rendered twice, through the background writer each time
+        if rel.suffix in (".mp4", ".parquet"):
+            assert (first / rel).read_bytes() == (second / rel).read_bytes(), rel
