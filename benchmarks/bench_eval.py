@@ -4,7 +4,10 @@
 policy (untrained: its rollouts run to ``--max-steps``, the worst case) on one task, both
 cameras at ``--size``, each rollout written as a LeRobot shard, MCAP log and Rerun
 recording like in a real run. Measured with 1 and with 2 worker processes (the pool is
-started and warmed up with one round first, as a run's pool stays up between rounds).
+started and warmed up with one round first, as a run's pool stays up between rounds); one
+worker both as it runs by default (Mesa's llvmpipe renders on one thread per core, so it
+already uses the second core for part of its rendering) and confined to one rendering
+thread (one core), the baseline a second worker on a second core is compared with.
 Peak resident memory (VmHWM) of every worker is read from /proc.
 
 With ``--memory-rollouts N`` a single worker then runs N more rollouts and its resident
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -71,12 +75,18 @@ def _policy(size: int) -> Any:
     return make_policy("resnet_t", "smoke", image_size=size)
 
 
-def rate(task_ref: str, workers: int, rollouts: int, size: int, max_steps: int) -> tuple[float, list[float]]:
-    """(rollouts per minute, peak MiB of each worker)."""
+def rate(
+    task_ref: str, workers: int, rollouts: int, size: int, max_steps: int, render_threads: int | None = None
+) -> tuple[float, list[float]]:
+    """(rollouts per minute, peak MiB of each worker); ``render_threads`` sets llvmpipe's
+    thread count in the new workers (None: Mesa's default, one per core)."""
     from libero_bench.evaluate import Evaluator
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
     policy = _policy(size)
+    saved = os.environ.pop("LP_NUM_THREADS", None)
+    if render_threads is not None:
+        os.environ["LP_NUM_THREADS"] = str(render_threads)  # read by each worker as it starts
     try:
         with Evaluator(workers, work) as evaluator:
             evaluator.run(policy, _jobs(task_ref, workers, size, max_steps, work / "warm"))  # start + warm up
@@ -88,6 +98,9 @@ def rate(task_ref: str, workers: int, rollouts: int, size: int, max_steps: int) 
             peaks = [status_mib(pid, "VmHWM") for pid in pids]
         return rollouts / minutes, peaks
     finally:
+        os.environ.pop("LP_NUM_THREADS", None)
+        if saved is not None:
+            os.environ["LP_NUM_THREADS"] = saved
         shutil.rmtree(work, ignore_errors=True)
 
 
@@ -116,6 +129,12 @@ def main() -> None:
     parser.add_argument("--rollouts", type=int, default=8)
     parser.add_argument("--max-steps", type=int, default=40)
     parser.add_argument("--size", type=int, default=128)
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=3,
+        help="Runs of each configuration, taking turns; medians are reported.",
+    )
     parser.add_argument("--memory-rollouts", type=int, default=0)
     parser.add_argument(
         "--memory-only",
@@ -139,19 +158,34 @@ def main() -> None:
 
             replace_section(args.results, "Evaluation memory", text)
         return
-    one, peaks1 = rate(args.task, 1, args.rollouts, args.size, args.max_steps)
-    two, peaks2 = rate(args.task, 2, args.rollouts, args.size, args.max_steps)
+    # One worker rendering on one llvmpipe thread (one core), one worker with Mesa's default
+    # of one thread per core (it already spreads its rendering over both cores), two workers.
+    configs = {"1x1": (1, 1), "1": (1, None), "2": (2, None)}
+    runs: dict[str, list[tuple[float, list[float]]]] = {name: [] for name in configs}
+    for _ in range(args.repeats):  # taking turns, so load changes hit all alike
+        for name, (workers, threads) in configs.items():
+            runs[name].append(rate(args.task, workers, args.rollouts, args.size, args.max_steps, threads))
+    med = {name: statistics.median(r for r, _ in v) for name, v in runs.items()}
+    peak = {name: [max(p) for p in zip(*(peaks for _, peaks in v), strict=True)] for name, v in runs.items()}
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+    def mib(name: str) -> str:
+        return ", ".join(f"{p:.0f}" for p in peak[name])
+
     lines = [
         f"Run: `python -m benchmarks.bench_eval --task {args.task} --rollouts {args.rollouts} --max-steps "
-        f"{args.max_steps} --size {args.size}"
+        f"{args.max_steps} --size {args.size} --repeats {args.repeats}"
         + (f" --memory-rollouts {args.memory_rollouts}" if args.memory_rollouts else "")
         + "` (smoke ResNet-T, untrained, so every rollout runs to the step limit; two cameras; "
-        "each rollout stored as shard + MCAP + .rrd).",
+        f"each rollout stored as shard + MCAP + .rrd); medians of {args.repeats} runs per configuration, "
+        f"taking turns; this machine has {cores} cores.",
         "",
-        "| workers | rollouts/min | speed-up | peak MiB per worker | target |",
-        "|---:|---:|---:|---|---|",
-        f"| 1 | {one:.1f} | 1.00 | {', '.join(f'{p:.0f}' for p in peaks1)} | |",
-        f"| 2 | {two:.1f} | {two / one:.2f}× | {', '.join(f'{p:.0f}' for p in peaks2)} | ≥ 1.8× |",
+        "| workers | llvmpipe threads per worker | rollouts/min | speed-up | peak MiB per worker | target |",
+        "|---:|---:|---:|---:|---|---|",
+        f"| 1 | 1 | {med['1x1']:.1f} | 1.00 | {mib('1x1')} | |",
+        f"| 1 | {cores} (default) | {med['1']:.1f} | {med['1'] / med['1x1']:.2f}× | {mib('1')} | |",
+        f"| 2 | {cores} (default) | {med['2']:.1f} | {med['2'] / med['1x1']:.2f}× one worker on one core; "
+        f"{med['2'] / med['1']:.2f}× one worker as it runs by default | {mib('2')} | ≥ 1.8× |",
     ]
     if args.memory_rollouts:
         trace = memory_trace(args.task, args.memory_rollouts, args.size, args.max_steps)
