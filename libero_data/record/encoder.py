@@ -169,7 +169,8 @@ class EpisodeVideoEncoder:
     def finish_episode(self) -> dict[str, tuple[Path, dict[str, np.ndarray] | None]]:
         """Flush every camera; {key: (mp4 path, pixel statistics)}."""
         for thread in self._threads.values():
-            thread.frames.put(_DONE)
+            if thread.is_alive():  # a live thread drains its queue, so this put returns
+                thread.frames.put(_DONE)
         results: dict[str, tuple[Path, dict[str, np.ndarray] | None]] = {}
         for key, thread in self._threads.items():
             thread.join()
