@@ -54,32 +54,10 @@ def render_frames(
         success.extend(holds[1:])
 
 
-def write_shard(
-    out_dir: str | Path,
-    *,
-    env: LiberoEnv,
-    states: np.ndarray,
-    actions: np.ndarray,
-    final_state: np.ndarray,
-    task: str,
-    instruction: str,
-    image_size: int,
-    sim_state_width: int,
-    info: dict[str, Any],
-) -> Path:
-    """Render one searched episode from its states and write it into ``out_dir``."""
-    return render_shard(
-        out_dir,
-        env=env,
-        states=states,
-        actions=actions,
-        final_state=final_state,
-        task=task,
-        instruction=instruction,
-        image_size=image_size,
-        sim_state_width=sim_state_width,
-        info=info,
-    )()
+def write_shard(out_dir: str | Path, **episode: Any) -> Path:
+    """Render one searched episode and write it into ``out_dir``, all before returning
+    (``episode``: the keyword arguments of :func:`render_shard`)."""
+    return render_shard(out_dir, **episode)()
 
 
 def render_shard(
