@@ -244,7 +244,7 @@ def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> 
 
 def memory_table(trace: list[float], args: argparse.Namespace) -> str:
     return (
-        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --memory-episodes "
+        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {args.tasks[0]} --memory-episodes "
         f"{args.memory_episodes} --size {args.size}` (task {args.tasks[0]}, one process that searches and "
         "renders, two cameras; resident memory sampled after each episode).\n\n"
         + growth_summary(trace, "episodes")
