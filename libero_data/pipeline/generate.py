@@ -534,7 +534,6 @@ def generate(
 
         jobs = _jobs(request, slots, status, workers)
         clock = PublishClock(publish_every)
-        published = _published_count(out)
 
         def note(key: str, success: bool, attempts: int) -> None:
             status[key] = (success, attempts)
@@ -545,13 +544,10 @@ def generate(
                 on_progress(progress)
 
         def maybe_publish(force: bool = False) -> None:
-            nonlocal published
             if not force and not clock.due():
                 return
             started = time.monotonic()
             count = _publish(out, request, slots, status, width, command=command)
-            if count != published:
-                published = count
             progress.published = count
             clock.published(started, time.monotonic())
             if on_progress:

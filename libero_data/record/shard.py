@@ -54,12 +54,6 @@ def render_frames(
         success.extend(holds[1:])
 
 
-def write_shard(out_dir: str | Path, **episode: Any) -> Path:
-    """Render one searched episode and write it into ``out_dir``, all before returning
-    (``episode``: the keyword arguments of :func:`render_shard`)."""
-    return render_shard(out_dir, **episode)()
-
-
 def render_shard(
     out_dir: str | Path,
     *,
