@@ -291,6 +291,7 @@ def run_job(
     """
     from concurrent.futures import ThreadPoolExecutor
 
+    from libero_data.pipeline.memory import release_free_memory
     from libero_data.record.shard import render_shard
     from libero_data.tasks import get_suite
 
@@ -312,6 +313,7 @@ def run_job(
         pending = None
         if finishing is not None:
             wait_for_shard(finishing)
+            release_free_memory()  # what the episode's encoders and buffers freed
         results.append((slot.k, bool(record["success"]), int(record["attempts"])))
         if report is not None:
             report(slot.key, slot.k, bool(record["success"]), int(record["attempts"]))
