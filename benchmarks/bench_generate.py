@@ -25,8 +25,10 @@ episodes, start-up excluded, since a real run's tasks have tens of episodes each
 share over the whole short run, start-up included, is shown beside it.
 
 Then the scaling: the same request in a fresh folder and a fresh Python process (wall time
-only), with one worker rendering on one llvmpipe thread (one core), one worker with Mesa's
-default of one thread per core, and two workers; the configurations take turns.
+only), with one worker pinned to one core (one llvmpipe thread), one worker with Mesa's
+default of one rendering thread per core, two workers with that default, and two workers
+rendering on one thread each; the configurations take turns. Each run also reports when its
+first episode landed (start-up) and how long its last episode ran alone (the tail).
 Everything is measured on the same machine in the same run; prints a Markdown table and,
 with ``--results``, replaces this benchmark's section of ``benchmarks/RESULTS.md``.
 """
@@ -176,24 +178,41 @@ def measure_split(suite: str, tasks: list[int], episodes: int, size: int, seed: 
 
 def wall_with_workers(
     suite: str, tasks: list[int], episodes: int, size: int, seed: int, workers: int
-) -> float:
+) -> dict[str, float]:
+    """Wall time of one ``generate`` run, with the moments its episodes landed: ``first`` (pool
+    start-up, imports and environment construction before any episode) and ``tail`` (from the
+    next-to-last episode to the end: the last job alone, plus the final publish)."""
     from libero_data.pipeline.generate import generate, resolve_request
 
     request = resolve_request(
         suite, [str(t) for t in tasks], episodes_per_task=episodes, image_size=size, seed=seed
     )
     out = Path(tempfile.mkdtemp(prefix="bench-generate-")) / "d"
+    landed: list[float] = []
+    seen = 0
+
+    def on_progress(progress: Any) -> None:
+        nonlocal seen
+        while seen < progress.done + progress.failed:
+            landed.append(time.perf_counter())
+            seen += 1
+
     try:
         start = time.perf_counter()
-        generate(request, out, workers=workers, publish_every=1e9)
-        return time.perf_counter() - start
+        generate(request, out, workers=workers, publish_every=1e9, on_progress=on_progress)
+        end = time.perf_counter()
+        return {
+            "wall": end - start,
+            "first": (landed[0] - start) if landed else float("nan"),
+            "tail": (end - landed[-2]) if len(landed) > 1 else float("nan"),
+        }
     finally:
         shutil.rmtree(out.parent, ignore_errors=True)
 
 
 def wall_in_fresh_process(
     args: argparse.Namespace, workers: int, render_threads: int | None, one_core: bool = False
-) -> float:
+) -> dict[str, float]:
     """``wall_with_workers`` in a new Python process (Mesa reads ``LP_NUM_THREADS`` once per
     process); ``render_threads`` None leaves Mesa's default (one per core). ``one_core`` pins
     the process and all its threads (rendering, video encoding, the background shard writer)
@@ -214,7 +233,7 @@ def wall_in_fresh_process(
     first_cpu = min(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
     pin = (lambda: os.sched_setaffinity(0, {first_cpu})) if one_core else None
     done = subprocess.run(command, env=env, check=True, capture_output=True, text=True, preexec_fn=pin)
-    return float(json.loads(done.stdout.strip().splitlines()[-1])["wall"])
+    return dict(json.loads(done.stdout.strip().splitlines()[-1]))
 
 
 def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> list[float]:
@@ -294,24 +313,38 @@ def split_table(r: dict[str, Any], args: argparse.Namespace) -> str:
     return "\n".join(lines) + "\n"
 
 
-def scaling_table(walls: dict[str, float], cores: int, args: argparse.Namespace) -> str:
+def scaling_table(times: dict[str, dict[str, float]], cores: int, args: argparse.Namespace) -> str:
+    base = times["1x1"]["wall"]
+    rows = [
+        ("1 (pinned to one core)", "1", "1x1"),
+        ("1", f"{cores} (default)", "1"),
+        ("2", f"{cores} (default)", "2"),
+        ("2", "1", "2x1"),
+    ]
+    episodes = len(args.tasks) * args.episodes
     lines = [
         f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
         f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats} --part scaling`.",
         "",
-        f"Worker scaling, each run in a fresh process (llvmpipe reads its thread count once per "
-        f"process), medians of {args.repeats} runs taking turns; this machine has {cores} cores. One "
-        "worker renders with llvmpipe's default of one thread per core, and completes each shard in a "
-        "background thread while it searches the next episode, so it already uses the other core for "
-        "part of its work; the first row pins it, every thread included, to one core:",
+        f"Worker scaling over {episodes} episodes, each run in a fresh process (llvmpipe reads its "
+        f"thread count once per process), medians of {args.repeats} runs taking turns; this machine "
+        f"has {cores} cores. One worker renders with llvmpipe's default of one thread per core, and "
+        "completes each shard in a background thread while it searches the next episode, so it "
+        "already uses the other core for part of its work; the first row pins it, every thread "
+        "included, to one core. *First episode*: from the start of the run to the first episode "
+        "on disk (start-up: process pool, imports, environment construction, plus one episode). "
+        "*Tail*: from the next-to-last episode to the end (the last job alone, and the final "
+        "publish).",
         "",
-        "| workers | llvmpipe threads per worker | wall s | speed-up | target |",
-        "|---:|---:|---:|---:|---|",
-        f"| 1 (pinned to one core) | 1 | {walls['1x1']:.0f} | 1.00 | |",
-        f"| 1 | {cores} (default) | {walls['1']:.0f} | {walls['1x1'] / walls['1']:.2f}× | |",
-        f"| 2 | {cores} (default) | {walls['2']:.0f} | {walls['1x1'] / walls['2']:.2f}× one worker on one "
-        f"core; {walls['1'] / walls['2']:.2f}× one worker as it runs by default | ≥ 1.8× |",
+        "| workers | llvmpipe threads per worker | wall s | first episode s | tail s | speed-up vs pinned one worker | vs one default worker |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
     ]
+    for workers, threads, key in rows:
+        t = times[key]
+        lines.append(
+            f"| {workers} | {threads} | {t['wall']:.0f} | {t['first']:.0f} | {t['tail']:.0f} | "
+            f"{base / t['wall']:.2f}× | {times['1']['wall'] / t['wall']:.2f}× |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -344,8 +377,8 @@ def main() -> None:
     if args.wall_only:  # one timed run for wall_in_fresh_process
         import json
 
-        wall = wall_with_workers(args.suite, args.tasks, args.episodes, args.size, args.seed, args.wall_only)
-        print(json.dumps({"wall": wall}))
+        times = wall_with_workers(args.suite, args.tasks, args.episodes, args.size, args.seed, args.wall_only)
+        print(json.dumps(times))
         return
     if args.memory_episodes:
         text = memory_table(
@@ -374,13 +407,22 @@ def main() -> None:
             replace_section(args.results, "Generation", text)
     if args.part in ("scaling", "all"):
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-        configs = {"1x1": (1, 1, True), "1": (1, None, False), "2": (2, None, False)}
-        runs: dict[str, list[float]] = {name: [] for name in configs}
+        configs = {
+            "1x1": (1, 1, True),
+            "1": (1, None, False),
+            "2": (2, None, False),
+            "2x1": (2, 1, False),
+        }
+        runs: dict[str, list[dict[str, float]]] = {name: [] for name in configs}
         for _ in range(args.repeats):  # the configurations take turns, so load changes hit all alike
             for name, (workers, threads, one_core) in configs.items():
                 runs[name].append(wall_in_fresh_process(args, workers, threads, one_core))
-        walls = {name: statistics.median(v) for name, v in runs.items()}
-        text = scaling_table(walls, cores, args)
+                print(name, runs[name][-1], flush=True)
+        times = {
+            name: {key: statistics.median(r[key] for r in v) for key in ("wall", "first", "tail")}
+            for name, v in runs.items()
+        }
+        text = scaling_table(times, cores, args)
         print(text)
         if args.results:
             replace_section(args.results, "Generation scaling", text)
