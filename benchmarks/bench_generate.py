@@ -29,6 +29,8 @@ only), with one worker pinned to one core (one llvmpipe thread), one worker with
 default of one rendering thread per core, two workers with that default, and two workers
 rendering on one thread each; the configurations take turns. Each run also reports when its
 first episode landed (start-up) and how long its last episode ran alone (the tail).
+``--part side-by-side`` measures the ceiling for any two workers: one pinned single-worker
+run alone against two independent ones at once, each pinned to its own core.
 Everything is measured on the same machine in the same run; prints a Markdown table and,
 with ``--results``, replaces this benchmark's section of ``benchmarks/RESULTS.md``.
 """
@@ -210,14 +212,9 @@ def wall_with_workers(
         shutil.rmtree(out.parent, ignore_errors=True)
 
 
-def wall_in_fresh_process(
-    args: argparse.Namespace, workers: int, render_threads: int | None, one_core: bool = False
-) -> dict[str, float]:
-    """``wall_with_workers`` in a new Python process (Mesa reads ``LP_NUM_THREADS`` once per
-    process); ``render_threads`` None leaves Mesa's default (one per core). ``one_core`` pins
-    the process and all its threads (rendering, video encoding, the background shard writer)
-    to one CPU."""
-    import json
+def _start_fresh_process(
+    args: argparse.Namespace, workers: int, render_threads: int | None, cpu: int | None
+) -> Any:
     import subprocess
     import sys
 
@@ -230,10 +227,46 @@ def wall_in_fresh_process(
         "--tasks", ",".join(map(str, args.tasks)), "--episodes", str(args.episodes),
         "--size", str(args.size), "--seed", str(args.seed), "--wall-only", str(workers),
     ]  # fmt: skip
-    first_cpu = min(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
-    pin = (lambda: os.sched_setaffinity(0, {first_cpu})) if one_core else None
-    done = subprocess.run(command, env=env, check=True, capture_output=True, text=True, preexec_fn=pin)
-    return dict(json.loads(done.stdout.strip().splitlines()[-1]))
+    pin = (lambda: os.sched_setaffinity(0, {cpu})) if cpu is not None else None
+    return subprocess.Popen(
+        command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=pin
+    )
+
+
+def _times_of(process: Any) -> dict[str, float]:
+    import json
+    import subprocess
+
+    out, err = process.communicate()
+    if process.returncode != 0:
+        raise subprocess.CalledProcessError(process.returncode, process.args, out, err)
+    return dict(json.loads(out.strip().splitlines()[-1]))
+
+
+def _cpus() -> list[int]:
+    return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
+
+
+def wall_in_fresh_process(
+    args: argparse.Namespace, workers: int, render_threads: int | None, one_core: bool = False
+) -> dict[str, float]:
+    """``wall_with_workers`` in a new Python process (Mesa reads ``LP_NUM_THREADS`` once per
+    process); ``render_threads`` None leaves Mesa's default (one per core). ``one_core`` pins
+    the process and all its threads (rendering, video encoding, the background shard writer)
+    to one CPU."""
+    cpu = _cpus()[0] if one_core else None
+    return _times_of(_start_fresh_process(args, workers, render_threads, cpu))
+
+
+def pinned_side_by_side(args: argparse.Namespace) -> list[dict[str, float]]:
+    """Two independent one-worker runs at once, each pinned to its own core (one llvmpipe
+    thread): no pool, no shared work, so what slows each against running alone is what the
+    two cores share (memory bandwidth, caches, the kernel), the ceiling for any two workers."""
+    cpus = _cpus()
+    if len(cpus) < 2:
+        raise SystemExit("the side-by-side measurement needs two cores")
+    running = [_start_fresh_process(args, 1, 1, cpu) for cpu in cpus[:2]]
+    return [_times_of(p) for p in running]
 
 
 def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> list[float]:
@@ -366,10 +399,11 @@ def main() -> None:
     )
     parser.add_argument(
         "--part",
-        choices=("split", "scaling", "all"),
+        choices=("split", "scaling", "side-by-side", "all"),
         default="all",
         help="The time split of one worker (section Generation), worker scaling (section "
-        "Generation scaling), or both.",
+        "Generation scaling), both, or the ceiling for two workers: one pinned worker alone "
+        "against two independent pinned workers at once (section Generation side by side).",
     )
     parser.add_argument("--results", type=Path, help="RESULTS.md to update")
     parser.add_argument("--wall-only", type=int, default=0, help=argparse.SUPPRESS)
@@ -405,6 +439,17 @@ def main() -> None:
         print(text)
         if args.results:
             replace_section(args.results, "Generation", text)
+    if args.part == "side-by-side":
+        alone: list[float] = []
+        pairs: list[list[float]] = []
+        for _ in range(args.repeats):
+            alone.append(wall_in_fresh_process(args, 1, 1, one_core=True)["wall"])
+            pairs.append([t["wall"] for t in pinned_side_by_side(args)])
+            print("alone", alone[-1], "pair", pairs[-1], flush=True)
+        text = side_by_side_table(alone, pairs, args)
+        print(text)
+        if args.results:
+            replace_section(args.results, "Generation side by side", text)
     if args.part in ("scaling", "all"):
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
         configs = {
@@ -426,6 +471,27 @@ def main() -> None:
         print(text)
         if args.results:
             replace_section(args.results, "Generation scaling", text)
+
+
+def side_by_side_table(alone: list[float], pairs: list[list[float]], args: argparse.Namespace) -> str:
+    solo = statistics.median(alone)
+    each = statistics.median(w for pair in pairs for w in pair)
+    slowest = statistics.median(max(pair) for pair in pairs)
+    lines = [
+        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
+        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats} --part side-by-side`.",
+        "",
+        "The ceiling for two workers on this machine. One run of one worker pinned to one core (one "
+        "llvmpipe thread), alone; then two such runs at the same time, each in its own process "
+        "pinned to its own core: no pool, nothing shared but the hardware and the kernel. Medians "
+        f"of {args.repeats}, taking turns.",
+        "",
+        "| runs | wall s (each) | throughput vs one alone |",
+        "|---|---:|---:|",
+        f"| one, alone | {solo:.0f} | 1.00× |",
+        f"| two at once | {each:.0f} (slower of the two: {slowest:.0f}) | {2 * solo / slowest:.2f}× |",
+    ]
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
