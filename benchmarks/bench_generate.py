@@ -381,6 +381,27 @@ def scaling_table(times: dict[str, dict[str, float]], cores: int, args: argparse
     return "\n".join(lines) + "\n"
 
 
+def side_by_side_table(alone: list[float], pairs: list[list[float]], args: argparse.Namespace) -> str:
+    solo = statistics.median(alone)
+    each = statistics.median(w for pair in pairs for w in pair)
+    slowest = statistics.median(max(pair) for pair in pairs)
+    lines = [
+        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
+        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats} --part side-by-side`.",
+        "",
+        "The ceiling for two workers on this machine. One run of one worker pinned to one core (one "
+        "llvmpipe thread), alone; then two such runs at the same time, each in its own process "
+        "pinned to its own core: no pool, nothing shared but the hardware and the kernel. Medians "
+        f"of {args.repeats}, taking turns.",
+        "",
+        "| runs | wall s (each) | throughput vs one alone |",
+        "|---|---:|---:|",
+        f"| one, alone | {solo:.0f} | 1.00× |",
+        f"| two at once | {each:.0f} (slower of the two: {slowest:.0f}) | {2 * solo / slowest:.2f}× |",
+    ]
+    return "\n".join(lines) + "\n"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--suite", default="libero_object")
@@ -471,27 +492,6 @@ def main() -> None:
         print(text)
         if args.results:
             replace_section(args.results, "Generation scaling", text)
-
-
-def side_by_side_table(alone: list[float], pairs: list[list[float]], args: argparse.Namespace) -> str:
-    solo = statistics.median(alone)
-    each = statistics.median(w for pair in pairs for w in pair)
-    slowest = statistics.median(max(pair) for pair in pairs)
-    lines = [
-        f"Run: `python -m benchmarks.bench_generate --suite {args.suite} --tasks {','.join(map(str, args.tasks))} "
-        f"--episodes {args.episodes} --size {args.size} --repeats {args.repeats} --part side-by-side`.",
-        "",
-        "The ceiling for two workers on this machine. One run of one worker pinned to one core (one "
-        "llvmpipe thread), alone; then two such runs at the same time, each in its own process "
-        "pinned to its own core: no pool, nothing shared but the hardware and the kernel. Medians "
-        f"of {args.repeats}, taking turns.",
-        "",
-        "| runs | wall s (each) | throughput vs one alone |",
-        "|---|---:|---:|",
-        f"| one, alone | {solo:.0f} | 1.00× |",
-        f"| two at once | {each:.0f} (slower of the two: {slowest:.0f}) | {2 * solo / slowest:.2f}× |",
-    ]
-    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":

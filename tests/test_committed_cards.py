@@ -43,7 +43,7 @@ def test_every_suite_meets_its_target_and_every_task_the_floor() -> None:
 def test_the_tables_and_cards_come_from_one_report() -> None:
     lines = (CARDS / "expert_report.jsonl").read_text().splitlines()
     settings = json.loads(lines[0])
-    measured = {json.loads(line)["ref"]: json.loads(line)["successes"] for line in lines[1:]}
+    measured = {row["ref"]: row["successes"] for row in map(json.loads, lines[1:])}
     assert measured == {f"{r['suite']}/{r['index']}": int(r["successes"]) for r in _rows()}
     code = settings["settings"]["expert"]
     assert f"expert code: {code}" in (CARDS / "expert_report.md").read_text()
