@@ -38,10 +38,13 @@ def machine() -> str:
 
 
 def stamp() -> str:
+    from libero_data.numerics import describe, machine_fingerprint
     from libero_data.pipeline.generate import versions
 
     vers = ", ".join(f"{k} {v}" for k, v in versions().items())
-    return f"_{dt.date.today().isoformat()} · {machine()} · {vers}_"
+    fingerprint = machine_fingerprint()
+    numerics = f"{describe(fingerprint)} (numeric key {fingerprint['numeric_key']})"
+    return f"_{dt.date.today().isoformat()} · {machine()} · {numerics} · {vers}_"
 
 
 def replace_section(path: Path, title: str, body: str) -> None:

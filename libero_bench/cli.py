@@ -449,6 +449,9 @@ def _frame_list(text: str | None) -> list[int] | None:
 
 
 def main() -> None:
+    from libero_data.numerics import pin
+
+    pin()  # before anything loads NumPy: see libero_data.numerics
     app()
 
 

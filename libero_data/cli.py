@@ -717,6 +717,9 @@ def _report_settings(journal: Path) -> dict[str, str] | None:
 
 
 def main() -> None:
+    from libero_data.numerics import pin
+
+    pin()  # before anything loads NumPy: see libero_data.numerics
     app()
 
 

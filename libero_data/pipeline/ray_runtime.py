@@ -23,8 +23,11 @@ def start_ray(workers: int, address: str | None) -> tuple[Any, bool]:
     """The ``ray`` module, initialised; and whether this call started it (then shut it down).
 
     Joins the cluster at ``address``, or starts a Ray instance here with ``workers`` CPUs.
-    Workers get one OpenMP thread and this process's OpenGL backend.
+    Workers get one OpenMP thread, this process's OpenGL backend and its numeric path
+    (``libero_data.numerics``: the variables are read when a worker first loads NumPy).
     """
+    from libero_data.numerics import NUMERIC_VARIABLES
+
     try:
         import ray
     except ImportError as exc:
@@ -33,8 +36,9 @@ def start_ray(workers: int, address: str | None) -> tuple[Any, bool]:
         return ray, False
     # MALLOC_ARENA_MAX: see libero_data.pipeline.memory (Ray starts the worker processes).
     env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1", "MALLOC_ARENA_MAX": "2"}
-    if os.environ.get("MUJOCO_GL"):
-        env_vars["MUJOCO_GL"] = os.environ["MUJOCO_GL"]
+    for name in ("MUJOCO_GL", *NUMERIC_VARIABLES):
+        if os.environ.get(name):
+            env_vars[name] = os.environ[name]
     options: dict[str, Any] = {
         "include_dashboard": False,
         "log_to_driver": False,
