@@ -111,13 +111,22 @@ def cpu_flags() -> frozenset[str]:
 
 
 def _blas() -> list[dict[str, Any]]:
-    """Every BLAS loaded in this process: library, version, the kernel it chose, threads."""
+    """NumPy's and SciPy's BLAS: library, version, the kernel it chose, threads.
+
+    Other copies a process may load (OpenCV ships its own OpenBLAS) take no part in the
+    simulation and would make the list depend on what happened to be imported. Where NumPy
+    and SciPy use a system BLAS (not in their own folders), every loaded BLAS is listed.
+    """
     from threadpoolctl import threadpool_info
 
+    found = [lib for lib in threadpool_info() if lib.get("user_api") == "blas"]
+    ours = [
+        lib
+        for lib in found
+        if {"numpy", "numpy.libs", "scipy", "scipy.libs"} & set(Path(str(lib.get("filepath", ""))).parts)
+    ]
     out = []
-    for lib in threadpool_info():
-        if lib.get("user_api") != "blas":
-            continue
+    for lib in ours or found:
         out.append(
             {
                 "library": lib.get("internal_api", "?"),
