@@ -587,7 +587,9 @@ def expert_report_cmd(
         summarise,
         write_report,
     )
+    from libero_data.numerics import machine_fingerprint
     from libero_data.pipeline.generate import versions
+    from libero_data.pipeline.provenance import machine_line
     from libero_data.tasks import SUITE_NAMES, get_suite
 
     names = [n for item in (suite or list(SUITE_NAMES[:5])) for n in item.split(",") if n]
@@ -599,12 +601,15 @@ def expert_report_cmd(
     else:
         refs = [t.id for name in names for t in get_suite(name).tasks]
     config = ExpertConfig()
+    machine = machine_fingerprint()
     settings: dict[str, object] = {
         "inits": inits,
         "seed": seed,
         "expert": expert_fingerprint(),
         "config": repr(config),
         "versions": versions(),
+        # Rows measured on another numeric path would not reproduce on one machine.
+        "numeric_key": machine["numeric_key"],
     }
     journal = ReportJournal(out, settings, fresh=fresh)
     todo = [r for r in refs if r not in journal.done]
@@ -622,6 +627,7 @@ def expert_report_cmd(
             "episode-minutes": f"{sum(r.seconds_per_episode * r.episodes for r in have) / 60:.0f}",
         }
         m.update({f"version {k}": v for k, v in versions().items()})
+        m[f"numeric path {machine['numeric_key']}"] = machine_line(machine)
         return m
 
     columns = [

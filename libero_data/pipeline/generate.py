@@ -39,6 +39,8 @@ log = logging.getLogger(__name__)
 
 WORK = ".libero-data"
 STORED_INITS = 50
+#: The fingerprint of an episode searched before fingerprints were recorded.
+UNKNOWN_MACHINE: dict[str, Any] = {"numeric_key": "unknown"}
 
 
 PUBLISH_SHARE = 0.05  # most of the run's wall time that publishing snapshots may take
@@ -186,8 +188,11 @@ def _expert_code() -> str:
 
 def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot: Slot) -> dict[str, Any]:
     """Run attempts until one succeeds; the record of the kept (or last) attempt."""
+    from libero_data.numerics import machine_fingerprint
+
     stored = task.init_states() if task.init_states_path is not None else None
     code = _expert_code()
+    machine = machine_fingerprint()
     failures: list[str] = []
     for attempt in range(request.max_attempts):
         reset_seed, expert_seed = episode_seeds(request.seed, f"{task.suite}/{task.name}/{slot.k}", attempt)
@@ -209,9 +214,16 @@ def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot
                 "final_state": episode.final_state,
                 "plan": episode.plan,
                 "expert_code": code,
+                "machine": machine,
             }
         failures.append(episode.failure or "unknown")
-    return {"success": False, "attempts": request.max_attempts, "failures": failures, "expert_code": code}
+    return {
+        "success": False,
+        "attempts": request.max_attempts,
+        "failures": failures,
+        "expert_code": code,
+        "machine": machine,
+    }
 
 
 def _save_search(path: Path, record: dict[str, Any]) -> None:
@@ -259,6 +271,7 @@ class EnvCache:
             self.close()
             env = LiberoEnv(task, EnvConfig(image_size=image_size))
             self._pair, self._key = (env, Expert(env, ExpertConfig())), key
+        assert self._pair is not None
         return self._pair
 
     def close(self) -> None:
@@ -347,6 +360,10 @@ def run_job(
                     # The code that searched the episode (a run resumed after an update of the
                     # expert or simulator keeps the episodes found before it).
                     "expert_code": record.get("expert_code", "unknown"),
+                    # The numeric path that searched it (what a replay must match bit for bit)
+                    # and the OpenGL renderer that drew its images.
+                    "machine": record.get("machine") or UNKNOWN_MACHINE,
+                    "gl": env.gl_info(),
                     "success": True,
                 }
                 finish = render_shard(
@@ -790,6 +807,7 @@ def _describe(
     """The dataset's metadata, its tasks' BDDL texts and its card."""
     from libero_data.bddl.writer import _formula
     from libero_data.cards import CardTask, render_card
+    from libero_data.pipeline import provenance
     from libero_data.tasks import get_suite
 
     suite = get_suite(request.suite)
@@ -797,10 +815,13 @@ def _describe(
     bddl = {}
     frames = 0
     codes: set[str] = set()
+    infos = []
     for shard in shards:
         info = json.loads((shard / "episode.json").read_text())
+        infos.append(info)
         frames += int(info["length"])
         codes.add(str(info.get("expert_code", "unknown")))
+    machines, renderers = provenance.machines(infos), provenance.renderers(infos)
     keys_in = {p.name for p in shards}
     for position, index in enumerate(request.tasks):
         task = suite.task(index)
@@ -832,6 +853,7 @@ def _describe(
         "complete": "yes" if complete else "no (generation still running or interrupted)",
         "expert code": ", ".join(sorted(codes)),
         **{f"version: {k}": v for k, v in vers.items()},
+        **provenance.card_settings(machines, renderers),
     }
     manifest = suite.path / "suite.json" if suite.path is not None else None
     if manifest is not None and manifest.is_file():
@@ -876,6 +898,8 @@ def _describe(
         "request": request.to_json(),
         "versions": vers,
         "expert_code": sorted(codes),
+        "machines": machines,
+        "renderers": renderers,
         "complete": complete,
         "sim_state_width": width,
         "tasks": [

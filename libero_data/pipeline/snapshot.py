@@ -16,6 +16,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from libero_data.pipeline.provenance import compact_row
 from libero_data.pipeline.publish import stamp
 from libero_data.record.shard import INFO_NAME, MCAP_NAME, SHARD_REPO
 
@@ -57,7 +58,8 @@ def build_snapshot(
         episodes.append(info)
         _link(shard / MCAP_NAME, out / "mcap" / f"episode_{index:06d}.mcap")
     meta = out / "meta"
-    (meta / EPISODES_META).write_text("".join(json.dumps(e, sort_keys=True) + "\n" for e in episodes))
+    rows = [compact_row(e) for e in episodes]
+    (meta / EPISODES_META).write_text("".join(json.dumps(r, sort_keys=True) + "\n" for r in rows))
     (meta / DATASET_META).write_text(json.dumps(dataset_meta, indent=2, sort_keys=True) + "\n")
     (meta / "bddl").mkdir()
     for name, text in bddl.items():

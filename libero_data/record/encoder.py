@@ -76,7 +76,9 @@ class _CameraThread(threading.Thread):
     def run(self) -> None:
         import av
 
-        container = stream = None
+        container: Any = None
+        stream: Any = None
+        counts = np.zeros((0, 256), dtype=np.int64)  # replaced at the first frame
         try:
             while True:
                 frame = self.frames.get()
@@ -93,14 +95,14 @@ class _CameraThread(threading.Thread):
                     stream.pix_fmt = self.config.pix_fmt
                     stream.width, stream.height = width, height
                     stream.time_base = Fraction(1, self.fps)
-                    self.counts = np.zeros((frame.shape[2], 256), dtype=np.int64)
+                    counts = self.counts = np.zeros((frame.shape[2], 256), dtype=np.int64)
                 picture = av.VideoFrame.from_ndarray(frame, format="rgb24")
                 picture.pts = self.written
                 picture.time_base = Fraction(1, self.fps)
                 container.mux(stream.encode(picture))
                 flat = frame.reshape(-1, frame.shape[2])
                 for c in range(flat.shape[1]):
-                    self.counts[c] += np.bincount(flat[:, c], minlength=256)
+                    counts[c] += np.bincount(flat[:, c], minlength=256)
                 self.written += 1
             if stream is not None and not self.cancelled.is_set():
                 container.mux(stream.encode())
@@ -176,7 +178,8 @@ class EpisodeVideoEncoder:
             thread.join()
             if thread.error is not None:
                 raise RuntimeError(f"encoding {key} failed: {thread.error!r}")
-            stats = uint8_statistics(thread.counts) if thread.written >= 2 else None
+            counts = thread.counts
+            stats = uint8_statistics(counts) if counts is not None and thread.written >= 2 else None
             results[key] = (thread.path, stats)
         self._threads = {}
         self._scratch = []  # LeRobot moves the files out; its folder tidies the rest
@@ -199,7 +202,7 @@ class EpisodeVideoEncoder:
 
 
 @functools.cache
-def shard_dataset_class() -> type:
+def shard_dataset_class() -> Any:
     """``LeRobotDataset`` streaming its videos through :class:`EpisodeVideoEncoder` (imported lazily)."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 

@@ -77,6 +77,7 @@ class LiberoEnv:
         self.problem: Problem = self.task.problem if self.task is not None else parse_file(self.bddl_path)
         self.language = self.task.language if self.task is not None else self.problem.language
         self.backend = select_backend(self.config.renderer) if self.config.cameras else None
+        self._gl_info: dict[str, str] | None = None
         self._env = self._build()
         self._trim_step()
         model_cameras = set(self._env.sim.model.camera_names)
@@ -271,6 +272,26 @@ class LiberoEnv:
         # MuJoCo reads pixels bottom-up and LIBERO's cameras are mounted rolled by 180 degrees:
         # rotating by 180 degrees gives the upright view (as LeRobot's LIBERO processing does).
         return np.ascontiguousarray(image[::-1, ::-1])
+
+    def gl_info(self) -> dict[str, str] | None:
+        """The OpenGL vendor, renderer and version that draw this environment's images.
+
+        ``None`` without cameras. Images depend on the renderer (Mesa's llvmpipe on a CPU, a
+        GPU driver elsewhere), so datasets record it beside the numeric fingerprint.
+        """
+        if not self.config.cameras:
+            return None
+        if self._gl_info is None:
+            from OpenGL import GL
+
+            self._env.sim._render_context_offscreen.gl_ctx.make_current()
+            self._gl_info = {
+                "backend": str(self.backend),
+                "vendor": GL.glGetString(GL.GL_VENDOR).decode(errors="replace"),
+                "renderer": GL.glGetString(GL.GL_RENDERER).decode(errors="replace"),
+                "version": GL.glGetString(GL.GL_VERSION).decode(errors="replace"),
+            }
+        return dict(self._gl_info)
 
     def observe(self, *, render: bool = True) -> dict[str, Any]:
         raw = self._env._get_observations()

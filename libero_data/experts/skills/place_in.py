@@ -406,6 +406,7 @@ def _point_in(ctx: Context, out: np.ndarray, height: float) -> Actions:
         tilt = np.deg2rad(90.0 - 15.0 * k)
         mat = approach_frame(inward * np.cos(tilt) + down * np.sin(tilt), closing)
         yield from ctx.motion.move(here, mat, tol=0.02, rot_tol=0.1, max_steps=30)
+    return True
 
 
 def _slide_in_pose(

@@ -1,0 +1,87 @@
+"""Which machines made a dataset's episodes: numeric fingerprints and OpenGL renderers.
+
+Each episode's ``episode.json`` (and its MCAP log) carries the whole fingerprint of the process
+that searched it (``libero_data.numerics.machine_fingerprint``) and the OpenGL strings of the
+renderer that drew its images. The dataset lists each distinct one once (``meta/libero.json``
+and the card); a row of ``meta/libero_episodes.jsonl`` names its machine by the fingerprint's
+key, so that file stays small however many episodes there are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+
+def compact_row(info: dict[str, Any]) -> dict[str, Any]:
+    """An episode's row for ``meta/libero_episodes.jsonl``: the machine by its key, the renderer by name."""
+    row = dict(info)
+    if "machine" in row:
+        machine = row.pop("machine")
+        row["numeric_key"] = (
+            str(machine.get("numeric_key", "unknown")) if isinstance(machine, dict) else "unknown"
+        )
+    if "gl" in row:
+        gl = row.pop("gl")
+        row["gl_renderer"] = str(gl.get("renderer", "unknown")) if isinstance(gl, dict) else "unknown"
+    return row
+
+
+def machines(infos: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The distinct numeric fingerprints of these episodes (first seen first), each with its
+    episode count under ``episodes``."""
+    found: dict[str, dict[str, Any]] = {}
+    for info in infos:
+        machine = info.get("machine") if isinstance(info.get("machine"), dict) else None
+        key = str((machine or {}).get("numeric_key", "unknown"))
+        entry = found.setdefault(key, {**(machine or {"numeric_key": "unknown"}), "episodes": 0})
+        entry["episodes"] += 1
+    return list(found.values())
+
+
+def renderers(infos: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The distinct OpenGL renderers that drew these episodes, each with its episode count."""
+    found: dict[tuple[str, ...], dict[str, Any]] = {}
+    for info in infos:
+        gl = info.get("gl")
+        strings: dict[str, Any] = gl if isinstance(gl, dict) else {}
+        key = tuple(str(strings.get(k, "unknown")) for k in ("backend", "vendor", "renderer", "version"))
+        entry = found.setdefault(
+            key, {**dict(zip(("backend", "vendor", "renderer", "version"), key)), "episodes": 0}
+        )
+        entry["episodes"] += 1
+    return list(found.values())
+
+
+def card_settings(
+    found_machines: list[dict[str, Any]], found_renderers: list[dict[str, Any]]
+) -> dict[str, str]:
+    """Rows for the card's settings table: one per machine and one per renderer."""
+    rows: dict[str, str] = {}
+    for m in found_machines:
+        rows[f"numeric path {m.get('numeric_key', 'unknown')}"] = f"{machine_line(m)} ({_episodes(m)})"
+    for r in found_renderers:
+        rows[f"OpenGL renderer ({r['backend']})"] = (
+            f"{r['vendor']} · {r['renderer']} · {r['version']} ({_episodes(r)})"
+        )
+    return rows
+
+
+def machine_line(fingerprint: dict[str, Any]) -> str:
+    """A fingerprint in one line: CPU and vector extensions, BLAS kernels, NumPy SIMD, libm, pinning."""
+    if fingerprint.get("numeric_key") == "unknown" or "cpu" not in fingerprint:
+        return "not recorded (episodes searched before libero-data recorded machines)"
+    blas = ", ".join(
+        f"{b['library']} {b['version']} {b['kernel']} kernel" for b in fingerprint.get("blas", [])
+    )
+    simd = (fingerprint.get("numpy_simd") or ["baseline"])[-1]
+    return (
+        f"{fingerprint['cpu']} ({' '.join(fingerprint.get('vector_extensions', []))}); "
+        f"BLAS: {blas or 'none loaded'}; NumPy SIMD up to {simd}; {fingerprint.get('libm', 'libm unknown')}; "
+        f"numerics {fingerprint.get('numerics', 'unknown')}"
+    )
+
+
+def _episodes(entry: dict[str, Any]) -> str:
+    n = int(entry["episodes"])
+    return f"{n} episode" if n == 1 else f"{n} episodes"
