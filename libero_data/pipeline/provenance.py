@@ -45,10 +45,9 @@ def renderers(infos: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     for info in infos:
         gl = info.get("gl")
         strings: dict[str, Any] = gl if isinstance(gl, dict) else {}
-        key = tuple(str(strings.get(k, "unknown")) for k in ("backend", "vendor", "renderer", "version"))
-        entry = found.setdefault(
-            key, {**dict(zip(("backend", "vendor", "renderer", "version"), key)), "episodes": 0}
-        )
+        names = ("backend", "vendor", "renderer", "version")
+        key = tuple(str(strings.get(k, "unknown")) for k in names)
+        entry = found.setdefault(key, {**dict(zip(names, key, strict=True)), "episodes": 0})
         entry["episodes"] += 1
     return list(found.values())
 

@@ -202,7 +202,9 @@ def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Pat
 
     def report(key: str, k: int, ok: bool, attempts: int) -> None:
         shard = work / "shards" / key
-        on_disk.append((key, ok and (shard / "episode.json").is_file() and (shard / "episode.mcap").is_file()))
+        on_disk.append(
+            (key, ok and (shard / "episode.json").is_file() and (shard / "episode.mcap").is_file())
+        )
 
     results = run_job(str(work), request, request["tasks"][0], 0, [0, 1], width, report=report)
     assert [r[:2] for r in results] == [(0, True), (1, True)]
