@@ -488,24 +488,53 @@ def validate_cmd(
             min=0,
         ),
     ] = 0,
+    tolerance: Annotated[
+        float,
+        typer.Option(
+            "--tolerance",
+            help=(
+                "For episodes made on another machine or by other libero-data code: how far (m or rad) "
+                "re-simulated joint and object positions may depart from the stored ones. Episodes made "
+                "on this machine's numeric path are always checked exactly. Default: exact everywhere."
+            ),
+            min=0.0,
+        ),
+    ] = 0.0,
 ) -> None:
-    """Check a dataset: metadata against files, frame counts of parquet and video, MCAP logs; optionally re-simulate."""
+    """Check a dataset: metadata against files, frame counts of parquet and video, MCAP logs; optionally re-simulate.
+
+    A re-simulation is exact on a machine whose numeric path (libero_data.numerics) is the one
+    that made the episode. Made elsewhere, a replay can depart in the last bits and contact can
+    grow them: the report then says from which frame, how far, and what differs between the
+    two machines, and --tolerance decides.
+    """
     from libero_data.pipeline.validate import validate
 
     console = _console()
     with console.status("validating") as status:
-        report = validate(dataset, resimulate=resimulate, on_step=lambda s: status.update(s))
+        report = validate(
+            dataset, resimulate=resimulate, tolerance=tolerance, on_step=lambda s: status.update(s)
+        )
     console.print(f"{dataset}: {report.episodes} episodes, {report.frames} frames", markup=False)
     if resimulate:
         console.print(
             f"re-simulated {report.resimulated} episode(s): {report.resimulated_ok} reached their goal",
             markup=False,
         )
+    for note in report.notes:
+        console.print(f"note: {note}", markup=False, soft_wrap=True)
     if report.ok:
         console.print("ok: no inconsistency found", markup=False)
         return
     for issue in report.issues or []:
         _console(stderr=True).print(f"problem: {issue}", markup=False, soft_wrap=True)
+    if report.departed_elsewhere:
+        _console(stderr=True).print(
+            f"{report.departed_elsewhere} episode(s) were made on another numeric path or by other code, where "
+            "replays can depart in the last bits (README, Reproducibility); --tolerance sets how far they may.",
+            markup=False,
+            soft_wrap=True,
+        )
     raise fail(f"{len(report.issues or [])} problem(s) found in {dataset}", code=1)
 
 

@@ -110,6 +110,25 @@ def cpu_flags() -> frozenset[str]:
     return frozenset(_cpuinfo().get("flags", "").split())
 
 
+def libm_uses_fma(flags: set[str] | frozenset[str], tunables: str | None = None) -> bool:
+    """Whether glibc's libm runs its FMA variants (``sin``, ``cos``, ``exp``, ``atan2``, ...).
+
+    glibc picks them where FMA and AVX2 are both usable, unless ``GLIBC_TUNABLES`` masks either
+    (``glibc.cpu.hwcaps=-FMA``, as on a CPU without it).
+    """
+    tunables = os.environ.get("GLIBC_TUNABLES", "") if tunables is None else tunables
+    masked = set()
+    for item in tunables.split(":"):
+        name, _, value = item.partition("=")
+        if name.strip() == "glibc.cpu.hwcaps":
+            masked |= {
+                v.strip().lstrip("-").upper().removesuffix("_USABLE")
+                for v in value.split(",")
+                if v.strip().startswith("-")
+            }
+    return {"fma", "avx2"} <= set(flags) and not masked & {"FMA", "AVX2"}
+
+
 def _blas() -> list[dict[str, Any]]:
     """NumPy's and SciPy's BLAS: library, version, the kernel it chose, threads.
 
@@ -173,7 +192,7 @@ def machine_fingerprint() -> dict[str, Any]:
     libc, libc_version = platform.libc_ver()
     blas = _blas()
     simd = _numpy_simd()
-    fma = "fma" in flags
+    fma = libm_uses_fma(flags)
     versions = _versions()
     wanted = pinned_variables(flags)
     pinned = (

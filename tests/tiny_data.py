@@ -22,8 +22,10 @@ TINY = [
 ]
 
 
-def run_cli(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+def run_cli(
+    *args: str, timeout: float = 900, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1", **(env or {})}
     return subprocess.run(
         [sys.executable, "-m", "libero_data.cli", *args],
         capture_output=True,

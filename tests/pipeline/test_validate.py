@@ -70,3 +70,74 @@ def test_not_a_dataset(tmp_path: Path) -> None:
     result = run_cli("validate", str(tmp_path))
     assert result.returncode == 1
     assert "not a LeRobot dataset (meta/info.json is missing)" in result.stderr
+
+
+def _shift_stored_state(root: Path, episode: int, frame: int, by: float) -> None:
+    """Move one stored joint position of one frame (as a changed or foreign state would be)."""
+    for path in sorted((root / "data").glob("*/*.parquet")):
+        table = pq.read_table(path)
+        rows = table.to_pydict()
+        hits = [
+            i
+            for i, (e, f) in enumerate(zip(rows["episode_index"], rows["frame_index"], strict=True))
+            if e == episode and f == frame
+        ]
+        if hits:
+            rows["observation.sim_state"][hits[0]][1] += by  # qpos[0], the arm's first joint
+            pq.write_table(pa.Table.from_pydict(rows, schema=table.schema), path)
+            return
+    raise AssertionError(f"no frame {frame} of episode {episode}")
+
+
+def test_a_replay_on_another_machine_is_explained_and_judged_by_the_tolerance(tiny_dataset: Path) -> None:
+    # A CPU without FMA, as glibc sees it: its libm takes the non-FMA variants of sin, cos, ...,
+    # which MuJoCo calls, so the replay departs from the stored states in the last bits.
+    from libero_data.numerics import cpu_flags, libm_uses_fma
+
+    if not libm_uses_fma(cpu_flags()):
+        pytest.skip("this CPU has no FMA variants to take away, so it cannot play another machine")
+    other = {"GLIBC_TUNABLES": "glibc.cpu.hwcaps=-FMA"}
+    strict = run_cli("validate", str(tiny_dataset), "--resimulate", "2", env=other)
+    assert strict.returncode == 1, strict.stdout
+    assert "re-simulated 2 episode(s): 2 reached their goal" in strict.stdout
+    assert "departs from the stored states at frame" in strict.stderr
+    assert "largest deviation of" in strict.stderr and "where an exact replay was asked for" in strict.stderr
+    assert "(FMA variants) there" in strict.stderr and "(no FMA variants) here" in strict.stderr
+    assert "--tolerance sets how far they may" in strict.stderr
+    assert "Traceback" not in strict.stderr
+    loose = run_cli("validate", str(tiny_dataset), "--resimulate", "2", "--tolerance", "1e-3", env=other)
+    assert loose.returncode == 0, loose.stderr
+    assert "within the tolerance of 0.001" in loose.stdout and "ok: no inconsistency found" in loose.stdout
+
+
+def test_a_replay_on_the_machine_that_made_it_stays_exact_whatever_the_tolerance(damaged: Path) -> None:
+    _shift_stored_state(damaged, episode=1, frame=12, by=1e-9)
+    report = validate(damaged, resimulate=2, tolerance=1.0)
+    issues = [str(i) for i in report.issues or []]
+    assert len(issues) == 1, issues
+    assert issues[0].startswith("episode 1: re-simulation departs from the stored states at frame 12")
+    assert "this machine runs the numeric path that made it" in issues[0]
+    assert report.departed_elsewhere == 0 and report.resimulated_ok == 2
+
+
+def test_a_dataset_without_machines_gets_the_tolerance_and_says_so(damaged: Path) -> None:
+    import json
+
+    # As a dataset written before machines were recorded: no fingerprints, no keys.
+    meta_path = damaged / "meta" / "libero.json"
+    meta = json.loads(meta_path.read_text())
+    del meta["machines"]
+    meta_path.write_text(json.dumps(meta))
+    rows_path = damaged / "meta" / "libero_episodes.jsonl"
+    rows = [json.loads(line) for line in rows_path.read_text().splitlines()]
+    rows_path.write_text(
+        "".join(json.dumps({k: v for k, v in r.items() if k != "numeric_key"}) + "\n" for r in rows)
+    )
+    _shift_stored_state(damaged, episode=0, frame=30, by=2e-6)
+    strict = validate(damaged, resimulate=2)
+    assert [i.where for i in strict.issues or []] == ["episode 0"]
+    assert "does not record the machine that made it" in str((strict.issues or [])[0])
+    assert strict.departed_elsewhere == 1
+    loose = validate(damaged, resimulate=2, tolerance=1e-5)
+    assert loose.ok, loose.issues
+    assert len(loose.notes) == 1 and "largest deviation of 2.00e-06" in loose.notes[0]
