@@ -484,11 +484,11 @@ def main() -> None:
             for name, (workers, threads, one_core) in configs.items():
                 runs[name].append(wall_in_fresh_process(args, workers, threads, one_core))
                 print(name, runs[name][-1], flush=True)
-        times = {
+        medians = {
             name: {key: statistics.median(r[key] for r in v) for key in ("wall", "first", "tail")}
             for name, v in runs.items()
         }
-        text = scaling_table(times, cores, args)
+        text = scaling_table(medians, cores, args)
         print(text)
         if args.results:
             replace_section(args.results, "Generation scaling", text)

@@ -21,6 +21,7 @@ import os
 import statistics
 import time
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -47,7 +48,12 @@ def ours(root: Path, window: int, batch: int, batches: int, workers: int) -> tup
     start = time.perf_counter()
     data.preload()
     decode = time.perf_counter() - start
-    loader = torch.utils.data.DataLoader(data, batch_size=batch, shuffle=True, num_workers=workers)
+    loader: torch.utils.data.DataLoader[Any] = torch.utils.data.DataLoader(
+        data,  # type: ignore[arg-type]
+        batch_size=batch,
+        shuffle=True,
+        num_workers=workers,
+    )
     warm = _rate(loader, batches, batch)
     # One epoch from a cold start: decode every episode once, then every window once.
     epoch = len(data) / (decode + len(data) / warm)

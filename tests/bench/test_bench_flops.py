@@ -8,6 +8,7 @@ from torch.utils.flop_counter import FlopCounterMode
 
 from libero_bench.flops import count_parameters, forward_flops, policy_table
 from libero_bench.policies import make_policy
+from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
 
 
 def test_count_parameters() -> None:
@@ -24,6 +25,7 @@ def test_flops_grow_linearly_with_the_window_for_the_rnn() -> None:
     policy = make_policy("resnet_rnn", "smoke", image_size=32)
     f2, f4, f6 = (forward_flops(policy, synthetic_batch(batch_size=1, window=t)) for t in (2, 4, 6))
     assert f2 > 0 and f6 - f4 == f4 - f2
+    assert isinstance(policy.config, ResNetRNNConfig)
     language = 2 * policy.config.task_emb_dim * policy.config.text_embed_dim
     assert f2 - (f4 - f2) == language
 
@@ -35,6 +37,7 @@ def test_lstm_and_cpu_attention_are_counted() -> None:
     with torch.no_grad(), plain:
         rnn(batch)
     cfg = rnn.config
+    assert isinstance(cfg, ResNetRNNConfig)
     width = 2 * cfg.image_embed_dim + cfg.text_embed_dim + 9
     lstm = 3 * 2 * 4 * cfg.rnn_hidden_dim * (width + cfg.rnn_hidden_dim)  # one layer, 3 steps
     assert forward_flops(rnn, batch) == plain.get_total_flops() + lstm

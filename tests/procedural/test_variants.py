@@ -37,7 +37,9 @@ def test_layout_moves_only_where_objects_start() -> None:
     task, v = variant("libero_spatial/0", "layout")
     src = task.problem
     assert (v.objects, v.fixtures, v.goal, v.language) == (src.objects, src.fixtures, src.goal, task.language)
-    table = scene_of(task.id, load_catalogue()).table
+    scene = scene_of(task.id, load_catalogue())
+    assert scene is not None
+    table = scene.table
     before, after = starts(src, table), starts(v, table)
     moved = [n for n in after if np.hypot(after[n][0] - before[n][0], after[n][1] - before[n][1]) >= MOVED]
     assert moved, "no object was moved"

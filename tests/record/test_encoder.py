@@ -43,7 +43,7 @@ def test_a_short_queue_waits_instead_of_dropping(tmp_path: Path) -> None:
     with av.open(str(path)) as container:
         decoded = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
     assert len(decoded) == 30
-    assert stats["count"].tolist() == [30 * 16 * 16]
+    assert stats is not None and stats["count"].tolist() == [30 * 16 * 16]
     assert abs(float(decoded[-1].mean()) - 232) < 4  # frames arrive in order
 
 
@@ -70,6 +70,7 @@ def _flat(nested: object) -> list[float]:
     """Numbers of a parquet cell of nested object arrays, in order."""
     if isinstance(nested, np.ndarray | list):
         return [x for item in nested for x in _flat(item)]
+    assert isinstance(nested, int | float | np.number), nested
     return [float(nested)]
 
 

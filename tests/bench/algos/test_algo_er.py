@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import pytest
 import torch
 from bench_helpers import synthetic_batch
@@ -26,7 +28,7 @@ def test_memory_never_exceeds_its_size_and_is_shared() -> None:
         algo.start_task(task, policy)
         batches = _task_batches(task)
         algo.loss(batches[0])
-        algo.end_task(task, lambda b=batches: b)
+        algo.end_task(task, functools.partial(list, batches))
         share = 10 // (task + 1)
         assert algo.memory_count() <= 10
         assert sorted(algo.memories) == list(range(task + 1))

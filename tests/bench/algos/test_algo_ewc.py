@@ -7,10 +7,10 @@ import torch
 from bench_helpers import synthetic_batch
 
 from libero_bench.algos import EWC, EWCConfig
-from libero_bench.policies import make_policy
+from libero_bench.policies import Policy, make_policy
 
 
-def _trained_ewc() -> tuple[EWC, torch.nn.Module, dict[str, torch.Tensor]]:
+def _trained_ewc() -> tuple[EWC, Policy, dict[str, torch.Tensor]]:
     torch.manual_seed(0)
     policy = make_policy("resnet_t", "smoke", image_size=32)
     batch = synthetic_batch(batch_size=2, window=3)

@@ -9,6 +9,9 @@ import torch
 from bench_helpers import BatchFactory
 
 from libero_bench.policies import POLICIES, Policy, config_from_dict, make_policy, policy_config
+from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
+from libero_bench.policies.resnet_t.config import ResNetTConfig
+from libero_bench.policies.vit_t.config import ViTTConfig
 
 
 def small(name: str, image_size: int = 32, **overrides: object) -> Policy:
@@ -154,6 +157,7 @@ def test_configs_round_trip_and_validate(name: str) -> None:
 
 def test_paper_sizes_follow_the_libero_configs() -> None:
     rnn = policy_config("resnet_rnn")
+    assert isinstance(rnn, ResNetRNNConfig)
     assert (rnn.image_embed_dim, rnn.text_embed_dim, rnn.rnn_hidden_dim, rnn.rnn_num_layers) == (
         64,
         32,
@@ -161,6 +165,7 @@ def test_paper_sizes_follow_the_libero_configs() -> None:
         2,
     )
     t = policy_config("resnet_t")
+    assert isinstance(t, ResNetTConfig)
     assert (t.embed_dim, t.num_layers, t.num_heads, t.head_dim, t.mlp_dim, t.dropout) == (
         64,
         4,
@@ -170,6 +175,7 @@ def test_paper_sizes_follow_the_libero_configs() -> None:
         0.1,
     )
     v = policy_config("vit_t")
+    assert isinstance(v, ViTTConfig)
     assert (v.embed_dim, v.spatial_num_layers, v.spatial_num_heads, v.spatial_head_dim) == (128, 7, 8, 120)
     assert (v.patch_size, v.temporal_dim, v.num_layers, v.num_heads) == (8, 64, 4, 6)
     for c in (rnn, t, v):
