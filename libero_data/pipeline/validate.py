@@ -295,10 +295,10 @@ def _resimulate(
                 envs[name] = LiberoEnv(source, EnvConfig(cameras=()))
             env = envs[name]
             on_step(f"re-simulating episode {ep['episode_index']} ({name})")
-            replay = _replay(env, int(row["reset_seed"]), states, actions)
+            result = replay(env, int(row["reset_seed"]), states, actions)
             key = str(row.get("numeric_key", "unknown"))
             made = Origin(machines.get(key, {"numeric_key": key}), str(row.get("expert_code", "unknown")))
-            _judge(f"episode {ep['episode_index']}", replay, made, here, tolerance, report)
+            _judge(f"episode {ep['episode_index']}", result, made, here, tolerance, report)
     finally:
         for env in envs.values():
             env.close()
@@ -338,9 +338,18 @@ class Replay:
     """A re-simulation against the stored states: where it departed and how far (positions)."""
 
     reached: bool
-    first: int | None  # the first frame whose state differs from the stored one
-    worst: float  # the largest deviation of a joint or object position (m or rad)
-    worst_frame: int
+    #: The first frame whose state (positions or velocities) differs from the stored one.
+    first: int | None
+    #: Per frame t >= 1: the largest deviation of a joint or object position (m or rad).
+    deviations: np.ndarray
+
+    @property
+    def worst(self) -> float:
+        return float(self.deviations.max()) if self.deviations.size else 0.0
+
+    @property
+    def worst_frame(self) -> int:
+        return int(np.argmax(self.deviations)) + 1 if self.deviations.size else 0
 
     def describe(self) -> str:
         return (
@@ -349,24 +358,23 @@ class Replay:
         )
 
 
-def _replay(env: Any, reset_seed: int, states: np.ndarray, actions: np.ndarray) -> Replay:
-    """Re-simulate ``actions`` from ``states[0]``, comparing every state with the stored one."""
+def replay(env: Any, reset_seed: int, states: np.ndarray, actions: np.ndarray) -> Replay:
+    """Re-simulate ``actions`` from ``states[0]`` (fixtures placed from ``reset_seed``),
+    comparing the positions of every frame with the stored ones."""
     env.reset(seed=reset_seed, render=False)
     env.set_state(states[0])
     positions = slice(1, 1 + int(env.sim.model.nq))  # the flat state is (time, qpos, qvel)
-    first, worst, worst_frame = None, 0.0, 0
+    deviations = np.zeros(max(len(actions) - 1, 0))
+    first = None
     reached = env.success()
     for t, action in enumerate(actions):
         if t > 0:
             now = env.get_state()
             if first is None and not np.array_equal(now, states[t]):
                 first = t
-            if first is not None:
-                deviation = float(np.abs(now[positions] - states[t][positions]).max())
-                if deviation > worst:
-                    worst, worst_frame = deviation, t
+            deviations[t - 1] = np.abs(now[positions] - states[t][positions]).max()
         reached = env.advance(action)
-    return Replay(reached=reached, first=first, worst=worst, worst_frame=worst_frame)
+    return Replay(reached=reached, first=first, deviations=deviations)
 
 
 def _judge(where: str, replay: Replay, made: Origin, here: Origin, tolerance: float, report: Report) -> None:
