@@ -608,6 +608,7 @@ def expert_report_cmd(
         TimeRemainingColumn,
     )
 
+    from libero_data.cards.expert_table import verdict
     from libero_data.experts.expert import ExpertConfig
     from libero_data.experts.report import (
         ReportJournal,
@@ -694,7 +695,9 @@ def expert_report_cmd(
     console = _console()
     for name, s in summarise(results).items():
         console.print(
-            f"{name}: {s['rate']:.1%} of {int(s['episodes'])} (target {s['target']:.0%}), lowest task {s['lowest_task_rate']:.0%}",
+            f"{name}: {s['rate']:.1%} of {int(s['episodes'])} (95% interval {s['low']:.1%}–{s['high']:.1%}; "
+            f"target {s['target']:.0%}: {verdict(s['rate'], s['high'], s['target'])}), "
+            f"lowest task {s['lowest_task_rate']:.0%}",
             markup=False,
         )
     console.print(f"wrote {csv_path} and {md_path}", markup=False)

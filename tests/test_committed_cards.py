@@ -1,7 +1,7 @@
 """The committed expert table in ``cards/`` is whole and meets the targets it is held to.
 
-Reads the committed files only (no simulation): a table with a task missing, a suite under
-its target or a task under the floor must not land.
+Reads the committed files only (no simulation): a table with a task missing, a suite whose
+95% interval lies under its target or a task whose interval lies under the floor must not land.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 from libero_data.cards.expert_table import TARGETS, TASK_FLOOR
+from libero_data.stats import wilson_interval
 from libero_data.tasks import SUITE_NAMES, get_suite
 
 CARDS = Path(__file__).resolve().parents[1] / "cards"
@@ -30,14 +31,23 @@ def test_the_table_covers_every_task_of_the_five_suites_with_50_inits() -> None:
     assert {int(r["episodes"]) for r in rows} == {50}
 
 
-def test_every_suite_meets_its_target_and_every_task_the_floor() -> None:
-    rows = _rows()
-    for suite, target in TARGETS.items():
-        mine = [r for r in rows if r["suite"] == suite]
-        rate = sum(int(r["successes"]) for r in mine) / sum(int(r["episodes"]) for r in mine)
-        assert rate >= target, f"{suite}: {rate:.1%} < {target:.0%}"
-    low = [(r["suite"], r["index"]) for r in rows if int(r["successes"]) / int(r["episodes"]) < TASK_FLOOR]
-    assert low == []
+def test_no_suite_falls_short_of_its_target_and_no_task_of_the_floor() -> None:
+    # Judged with 95% intervals (libero_data.cards.expert_table): a suite or task falls short
+    # only where its whole interval lies under the target or the floor.
+    from libero_data.cards.expert_table import falls_short, summarise
+    from libero_data.experts.report import TaskResult
+
+    results = [
+        TaskResult(r["suite"], int(r["index"]), r["name"], int(r["episodes"]), int(r["successes"]), 0.0, 0.0)
+        for r in _rows()
+    ]
+    summary = summarise(results)
+    assert set(summary) >= set(TARGETS)
+    short = {suite: falls_short(s) for suite, s in summary.items() if falls_short(s)}
+    assert short == {}
+    for r in _rows():
+        high = wilson_interval(int(r["successes"]), int(r["episodes"]))[1]
+        assert high >= TASK_FLOOR, f"{r['suite']}/{r['index']}: {r['successes']}/{r['episodes']}"
 
 
 def test_the_tables_and_cards_come_from_one_report() -> None:

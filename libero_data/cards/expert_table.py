@@ -15,7 +15,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from libero_data.experts.report import TaskResult
 
-#: The success rates the expert is held to (share of stored init states solved).
+#: The success rates the expert is held to (share of stored init states solved). A suite
+#: falls short only where its 95% interval lies wholly below the target: a rate measured
+#: just under it is within what re-measuring the same expert on another numeric path moves
+#: (README, "Reproducibility"), and the table says so in words.
 TARGETS = {
     "libero_object": 0.98,
     "libero_spatial": 0.95,
@@ -23,24 +26,54 @@ TARGETS = {
     "libero_10": 0.85,
     "libero_90": 0.85,
 }
+#: Every task's rate is held to this floor (the same way: its interval must reach it).
 TASK_FLOOR = 0.5
 
 
 def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
-    """Per suite: episodes, successes, rate, target, and the lowest task rate."""
+    """Per suite: episodes, successes, rate and its 95% interval (``low``, ``high``), target,
+    and the lowest task rate with the upper end of its interval (``lowest_task_high``)."""
+    from libero_data.stats import wilson_interval
+
     out: dict[str, dict[str, float]] = {}
     for suite in dict.fromkeys(r.suite for r in results):
         rows = [r for r in results if r.suite == suite]
         episodes = sum(r.episodes for r in rows)
         successes = sum(r.successes for r in rows)
+        low, high = wilson_interval(successes, episodes)
+        lowest = min(rows, key=lambda r: r.rate)
         out[suite] = {
             "tasks": len(rows),
             "episodes": episodes,
             "successes": successes,
             "rate": successes / episodes if episodes else 0.0,
+            "low": low,
+            "high": high,
             "target": TARGETS.get(suite, float("nan")),
-            "lowest_task_rate": min(r.rate for r in rows),
+            "lowest_task_rate": lowest.rate,
+            "lowest_task_high": wilson_interval(lowest.successes, lowest.episodes)[1],
         }
+    return out
+
+
+def verdict(rate: float, high: float, target: float) -> str:
+    """A rate against its target, in words: met, below it but within the interval, or below."""
+    if rate >= target:
+        return "met"
+    if high >= target:
+        return f"{(target - rate) * 100:.1f} points below, within the 95% interval"
+    return "below: the whole 95% interval lies under the target"
+
+
+def falls_short(summary: dict[str, float]) -> list[str]:
+    """What of a suite's summary falls short: its rate, or a task under the floor (intervals)."""
+    out = []
+    if summary["high"] < summary["target"]:
+        out.append(
+            f"rate {summary['rate']:.1%} (interval up to {summary['high']:.1%}) under {summary['target']:.0%}"
+        )
+    if summary["lowest_task_high"] < TASK_FLOOR:
+        out.append(f"a task at {summary['lowest_task_rate']:.0%} under the {TASK_FLOOR:.0%} floor")
     return out
 
 
@@ -80,17 +113,26 @@ def write_report(
     if meta:
         lines.append("")
     lines += [
-        f"| suite | tasks | episodes | success | target | lowest task (floor {TASK_FLOOR:.0%}) |",
-        "|---|---:|---:|---:|---:|---:|",
+        f"| suite | tasks | episodes | success (95% interval) | target | against the target | lowest task (floor {TASK_FLOOR:.0%}) |",
+        "|---|---:|---:|---:|---:|---|---:|",
     ]
     for suite, s in summarise(results).items():
-        # Two targets, marked apart: the suite's rate, and every task at or above the floor.
-        rate_ok = "✓" if s["rate"] >= s["target"] else "✗"
-        floor_ok = "✓" if s["lowest_task_rate"] >= TASK_FLOOR else "✗"
-        lines.append(
-            f"| {suite} | {int(s['tasks'])} | {int(s['episodes'])} | {s['rate']:.1%} {rate_ok} | {s['target']:.0%} "
-            f"| {s['lowest_task_rate']:.0%} {floor_ok} |"
+        # Two targets, judged apart: the suite's rate, and every task at or above the floor.
+        floor_ok = (
+            "✓"
+            if s["lowest_task_rate"] >= TASK_FLOOR
+            else ("≈" if s["lowest_task_high"] >= TASK_FLOOR else "✗")
         )
+        lines.append(
+            f"| {suite} | {int(s['tasks'])} | {int(s['episodes'])} | {s['rate']:.1%} ({s['low']:.1%}–{s['high']:.1%}) "
+            f"| {s['target']:.0%} | {verdict(s['rate'], s['high'], s['target'])} | {s['lowest_task_rate']:.0%} {floor_ok} |"
+        )
+    lines += [
+        "",
+        "A suite falls short of its target only where its 95% interval (Wilson) lies wholly below it; a rate "
+        "just under the target is said so in words. The same for a task and the floor (✓ at or above, "
+        "≈ below but within its interval, ✗ below it).",
+    ]
     lines += ["", "| task | instruction | success | mean steps | failures |", "|---|---|---:|---:|---|"]
     from libero_data.tasks.registry import language_from_name
 

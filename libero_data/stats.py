@@ -1,0 +1,52 @@
+"""Binomial statistics for success rates: intervals, and how many successes to expect.
+
+Pure functions of counts (no NumPy or SciPy needed). Used by the expert tests, which derive
+their margins from the committed expert table, and by anything that reports a rate over a
+handful of episodes.
+"""
+
+from __future__ import annotations
+
+import math
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """The Wilson score interval of a rate (95% by default); ``(0, 1)`` for ``n == 0``."""
+    if not 0 <= successes <= n:
+        raise ValueError(f"successes must be in 0..n, got {successes} of {n}")
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    denominator = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def binomial_cdf(k: int, n: int, p: float) -> float:
+    """P(X <= k) for X ~ Binomial(n, p)."""
+    if k < 0:
+        return 0.0
+    return min(1.0, sum(math.comb(n, i) * p**i * (1 - p) ** (n - i) for i in range(min(k, n) + 1)))
+
+
+def least_successes(n: int, p: float, alpha: float) -> int:
+    """The most successes ``k`` such that fewer than ``k`` of ``n`` has probability <= ``alpha``
+    at rate ``p``: asserting at least ``k`` fails a working expert with probability <= ``alpha``."""
+    k = 0
+    while k < n and binomial_cdf(k, n, p) <= alpha:
+        k += 1
+    return k
+
+
+def starts_needed(p: float, alpha: float, most: int = 50) -> int:
+    """The fewest episodes at rate ``p`` for which 'none succeeded' has probability <= ``alpha``
+    (so that asserting one success means something), at most ``most``."""
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    if p >= 1:
+        return 1
+    if p <= 0:
+        return most
+    # (the small margin keeps an exact integer, e.g. 3 for p = 0.9 and alpha = 0.001, from rounding up)
+    return min(most, max(1, math.ceil(math.log(alpha) / math.log(1 - p) - 1e-9)))

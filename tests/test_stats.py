@@ -1,0 +1,28 @@
+"""Binomial statistics against hand-computed values."""
+
+from __future__ import annotations
+
+import pytest
+
+from libero_data.stats import binomial_cdf, least_successes, starts_needed, wilson_interval
+
+
+def test_wilson_interval() -> None:
+    # 8 of 10: centre (0.8 + 1.92/10) / 1.384 = 0.7168, half 1.96 sqrt(0.016 + 0.00096) / 1.384 = 0.1844
+    low, high = wilson_interval(8, 10)
+    assert low == pytest.approx(0.4902, abs=1e-4) and high == pytest.approx(0.9433, abs=1e-4)
+    assert wilson_interval(50, 50)[1] == 1.0 and wilson_interval(50, 50)[0] == pytest.approx(0.9287, abs=1e-4)
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    with pytest.raises(ValueError, match=r"successes must be in 0\.\.n"):
+        wilson_interval(3, 2)
+
+
+def test_binomial_tail_and_thresholds() -> None:
+    assert binomial_cdf(0, 3, 0.9) == pytest.approx(0.001)
+    assert binomial_cdf(1, 3, 0.9) == pytest.approx(0.001 + 3 * 0.9 * 0.01)
+    assert binomial_cdf(-1, 3, 0.9) == 0.0 and binomial_cdf(3, 3, 0.9) == pytest.approx(1.0)
+    assert least_successes(3, 0.9, 0.001) == 1  # P(0 of 3) = 0.001, P(<= 1 of 3) = 0.028
+    assert least_successes(3, 0.9, 0.05) == 2
+    assert least_successes(3, 0.5, 0.001) == 0  # nothing can be asserted
+    assert starts_needed(0.9, 0.001) == 3 and starts_needed(0.5, 0.001) == 10
+    assert starts_needed(1.0, 0.001) == 1 and starts_needed(0.0, 0.001, most=7) == 7
