@@ -52,6 +52,7 @@ from libero_bench.run_files import (
     rollout_key,
     write_json,
 )
+from libero_data.numerics import machine_fingerprint
 
 if TYPE_CHECKING:
     import torch
@@ -213,6 +214,9 @@ class RunPlan:
                 "workers": options.workers,
                 "executor": options.executor,
                 "versions": _versions(),
+                # The numeric path of the machines that worked on the run (a resumed run adds its
+                # own): rollouts replay bit for bit only on the same one (libero_data.numerics).
+                "machines": [machine_fingerprint()],
             },
         }
 
@@ -359,7 +363,13 @@ class Trainer:
                     f"{root} holds a run with a different {key!r}; resume it with the same settings "
                     "or choose a new --out folder"
                 )
-            write_json(self.folder.config, {**saved, "runtime": config["runtime"]})
+            runtime = dict(config["runtime"])
+            earlier = saved.get("runtime", {}).get("machines", [])
+            keys = {m.get("numeric_key") for m in earlier}
+            runtime["machines"] = earlier + [
+                m for m in runtime["machines"] if m.get("numeric_key") not in keys
+            ]
+            write_json(self.folder.config, {**saved, "runtime": runtime})
         else:
             check_out_folder(root)
             root.mkdir(parents=True, exist_ok=True)

@@ -745,11 +745,14 @@ def _report_settings(journal: Path) -> dict[str, str] | None:
 
     try:
         settings = json.loads(journal.read_text().split("\n", 1)[0])["settings"]
-        return {
+        found = {
             "expert code": str(settings["expert"]),
             "init states per task": str(settings["inits"]),
             "seed": str(settings["seed"]),
         }
+        if "numeric_key" in settings:  # reports since machines were recorded
+            found["numeric path"] = str(settings["numeric_key"])
+        return found
     except (OSError, ValueError, KeyError, TypeError):
         return None  # no journal beside the table (or not one): the card just says less
 

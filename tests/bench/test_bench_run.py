@@ -71,8 +71,14 @@ def _episodes(run: Path) -> list[dict]:
 
 
 def test_run_folder_and_results(bench_run: Path) -> None:
+    from libero_data.numerics import machine_fingerprint
+
     config = json.loads((bench_run / "config.json").read_text())
     assert config["preset"]["epochs"] == 1 and config["preset"]["eval_max_steps"] == 6
+    # The run names the numeric path it ran on (pinned, as this test process is).
+    machines = config["runtime"]["machines"]
+    assert [m["numeric_key"] for m in machines] == [machine_fingerprint()["numeric_key"]]
+    assert {b["kernel"] for b in machines[0]["blas"]} and machines[0]["libm"]
     assert [t["name"] for t in config["tasks"]] == [
         "open_the_middle_drawer_of_the_cabinet",
         "turn_on_the_stove",
@@ -242,6 +248,8 @@ def test_resume_after_sigkill_gives_the_same_results(
         p.name for p in (bench_run / "rrd").iterdir()
     )
     assert _episodes(out) == _episodes(bench_run)
+    resumed = json.loads((out / "config.json").read_text())["runtime"]["machines"]
+    assert len(resumed) == 1  # the same machine worked on it twice: listed once
     import datasets
 
     ours = datasets.load_dataset(str(out / "rollouts"), split="train")

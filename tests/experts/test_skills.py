@@ -1,16 +1,38 @@
-"""The expert's skills on a handful of tasks (one stored init state each), and determinism."""
+"""The expert's skills on a handful of tasks, as rates over several starts; and determinism.
+
+An episode's outcome is not asserted: on a machine whose numeric path differs (README,
+"Reproducibility") the same start can end otherwise. Each task is instead run from several
+stored init states, and the number of successes must reach a margin derived from the committed
+expert table (``cards/expert_report.csv``): with the lower end of the 95% interval of the task's
+measured rate, the fewest starts for which "no success" is a 0.1% event, and at least the 0.1%
+quantile of successes over them. A working expert fails a task's check with probability <= 0.1%.
+"""
 
 from __future__ import annotations
+
+import csv
+import functools
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from libero_data.experts import Expert
+from libero_data.experts.report import episode_seeds
 from libero_data.experts.skills import SKILLS
 from libero_data.sim import EnvConfig, LiberoEnv
+from libero_data.stats import least_successes, starts_needed, wilson_interval
 from libero_data.tasks import get_task
 
 pytestmark = pytest.mark.sim
+
+TABLE = Path(__file__).resolve().parents[2] / "cards" / "expert_report.csv"
+#: The chance, per task, that a working expert fails its check.
+ALPHA = 0.001
+#: Styles and fixture placements the table did not use (it used seed 0).
+SEED = 11
+#: The most starts a task's check may take.
+MOST_STARTS = 12
 
 CASES = {
     "libero_object/0": ["pick", "place_in"],  # into a basket
@@ -51,22 +73,61 @@ def test_every_skill_is_registered() -> None:
     }
 
 
+@functools.cache
+def _table() -> dict[str, tuple[int, int]]:
+    with TABLE.open(newline="") as f:
+        return {
+            f"{r['suite']}/{r['index']}": (int(r["successes"]), int(r["episodes"])) for r in csv.DictReader(f)
+        }
+
+
+def margin(ref: str) -> tuple[int, int, str]:
+    """(starts, least successes, the table's evidence in words) for a task's check."""
+    successes, episodes = _table()[ref]
+    low = wilson_interval(successes, episodes)[0]
+    starts = starts_needed(low, ALPHA, most=MOST_STARTS)
+    need = least_successes(starts, low, ALPHA)
+    return starts, need, f"{successes}/{episodes} in the committed table (95% interval from {low:.0%})"
+
+
+def test_margins_come_from_the_table() -> None:
+    assert set(CASES) <= set(_table())
+    for ref in CASES:
+        starts, need, evidence = margin(ref)
+        assert need >= 1, f"{ref}: {evidence} is too low to check in {starts} starts"
+
+
 @pytest.mark.parametrize("ref", sorted(CASES))
 def test_skills_solve_tasks(ref: str) -> None:
+    starts, need, evidence = margin(ref)
     task = get_task(ref)
+    inits = task.init_states()
+    solved, failures = 0, []
     with LiberoEnv(task, EnvConfig(cameras=())) as env:
-        episode = Expert(env).run(task.init_states()[1], reset_seed=1, seed=11)
-        assert [p.split("(")[0] for p in episode.plan] == CASES[ref]
-        assert episode.success, episode.failure
-        assert episode.actions.dtype == np.float32 and episode.actions.shape == (episode.length, 7)
-        assert np.all(np.abs(episode.actions) <= 1.0)
-        # The stored first state and the actions replay to the same end, bit for bit.
-        env.reset(seed=1, render=False)
-        env.set_state(episode.states[0])
-        for action in episode.actions:
-            env.step(action, render=False)
-        np.testing.assert_array_equal(env.get_state(), episode.final_state)
-        assert env.success()
+        expert = Expert(env)
+        for i in range(1, starts + 1):
+            reset_seed, seed = episode_seeds(SEED, task.id, i)
+            episode = expert.run(inits[i], reset_seed=reset_seed, seed=seed)
+            if i == 1:  # the plan these cases are about (other starts may need another)
+                assert [p.split("(")[0] for p in episode.plan] == CASES[ref]
+            assert episode.actions.dtype == np.float32 and episode.actions.shape == (episode.length, 7)
+            assert np.all(np.abs(episode.actions) <= 1.0)
+            if episode.success:
+                solved += 1
+            else:
+                failures.append(f"init {i}: {episode.failure}")
+            if i == 1:
+                # The stored first state and the actions replay to the same end, bit for bit.
+                env.reset(seed=reset_seed, render=False)
+                env.set_state(episode.states[0])
+                for action in episode.actions:
+                    env.step(action, render=False)
+                np.testing.assert_array_equal(env.get_state(), episode.final_state)
+                assert env.success() == episode.success
+    assert solved >= need, (
+        f"{ref}: the expert solved {solved} of {starts} starts (inits 1..{starts}, seed {SEED}); with "
+        f"{evidence}, fewer than {need} has probability <= {ALPHA:.1%}. Failures: {'; '.join(failures)}"
+    )
 
 
 def test_same_seed_same_episode_other_seed_other_episode() -> None:
@@ -76,8 +137,9 @@ def test_same_seed_same_episode_other_seed_other_episode() -> None:
         a = expert.run(task.init_states()[0], reset_seed=0, seed=5)
         b = expert.run(task.init_states()[0], reset_seed=0, seed=5)
         c = expert.run(task.init_states()[0], reset_seed=0, seed=6)
-    assert a.success and b.success and c.success
+    assert a.success == b.success and a.length > 50
     np.testing.assert_array_equal(a.actions, b.actions)
+    np.testing.assert_array_equal(a.states, b.states)
     assert a.actions.shape != c.actions.shape or not np.array_equal(a.actions, c.actions)
 
 
