@@ -29,8 +29,12 @@ OTHER_KERNELS = ("Nehalem", "Sandybridge")
 
 
 def _probe(what: str, **env: str) -> dict:
+    # Each probe plays one machine: nothing of this process's numeric path leaks into it (the
+    # suite itself may run with LIBERO_DATA_NUMERICS=native, under another kernel).
     run_env = {
-        k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", OPT_OUT)
     }
     run_env.update(env)
     done = subprocess.run(
