@@ -93,8 +93,7 @@ def rate(
             start = time.perf_counter()
             evaluator.run(policy, _jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers))
             minutes = (time.perf_counter() - start) / 60
-            pool = evaluator._pool
-            pids = list(pool._processes) if pool is not None and pool._processes else []
+            pids = evaluator.runner.worker_pids()
             peaks = [status_mib(pid, "VmHWM") for pid in pids]
         return rollouts / minutes, peaks
     finally:
@@ -115,7 +114,7 @@ def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> lis
         with Evaluator(1, work) as evaluator:
             for r in range(rollouts):
                 evaluator.run(policy, _jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
-                pid = next(iter(evaluator._pool._processes))  # type: ignore[union-attr]
+                (pid,) = evaluator.runner.worker_pids()
                 trace.append(status_mib(pid, "VmRSS"))
                 shutil.rmtree(work / f"m{r}", ignore_errors=True)
         return trace

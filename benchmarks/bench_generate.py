@@ -274,10 +274,10 @@ def memory_trace(suite: str, task: int, episodes: int, size: int, seed: int) -> 
 
     ``--workers 1`` searches and renders in this process, so it is the worker here; like the
     ``libero-data generate`` command in that case (and every pool worker), it first caps
-    glibc's malloc arenas (see ``libero_data.pipeline.memory``).
+    glibc's malloc arenas (see ``libero_data.runtime.memory``).
     """
     from libero_data.pipeline.generate import generate, resolve_request
-    from libero_data.pipeline.memory import limit_malloc_arenas
+    from libero_data.runtime.memory import limit_malloc_arenas
 
     limit_malloc_arenas()
 

@@ -99,8 +99,8 @@ def child_controller() -> dict[str, object]:
 def child_episodes(tasks: list[str], starts: int) -> dict[str, object]:
     """Hashes of expert episodes (stored inits 0..starts-1, the expert report's seeds)."""
     from libero_data.experts import Expert
-    from libero_data.experts.report import episode_seeds
     from libero_data.numerics import machine_fingerprint
+    from libero_data.seeding import episode_seeds
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.tasks import get_task
 
@@ -122,7 +122,7 @@ def child_drift(mode: str, folder: str, tasks: list[str]) -> dict[str, object]:
     import numpy as np
 
     from libero_data.experts import Expert
-    from libero_data.pipeline.validate import replay
+    from libero_data.pipeline.resimulate import replay
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.tasks import get_task
 

@@ -30,7 +30,8 @@ def one_run(
     import numpy as np
     import torch
 
-    from libero_bench.data import DemoDataset, TaskLoader, WindowDataset
+    from libero_bench.data import DemoDataset
+    from libero_bench.loaders import TaskLoader, WindowDataset
     from libero_bench.policies import make_policy, policy_config
     from libero_bench.presets import get_preset
 

@@ -39,7 +39,7 @@ def machine() -> str:
 
 def stamp() -> str:
     from libero_data.numerics import describe, machine_fingerprint
-    from libero_data.pipeline.generate import versions
+    from libero_data.runtime.versions import versions
 
     vers = ", ".join(f"{k} {v}" for k, v in versions().items())
     fingerprint = machine_fingerprint()

@@ -1,36 +1,27 @@
-"""Training data: windows of consecutive frames from a libero-data LeRobot dataset.
+"""A libero-data dataset as training data: its tasks, episodes and decoded frames.
 
 A :class:`DemoDataset` is the dataset on disk (read through lerobot: metadata, the parquet
 columns and the per-episode videos) with its task list and which episodes belong to which
-task. A :class:`WindowDataset` turns the episodes of one or more tasks into training
-samples: every window of ``T`` consecutive frames that lies inside one episode (starts
-``0 .. length - T``), with both cameras, joint and gripper states, actions, the task's
-language embedding and the task's id in the run.
+task; :meth:`DemoDataset.load_episode` decodes one episode's two videos as a whole into
+uint8 tensors (``N, 3, H, W``). :mod:`libero_bench.loaders` turns episodes into training
+windows and batches.
 
-Each episode's two videos are decoded **once**, as a whole, and kept as uint8 tensors
-(``N, 3, H, W``) for the life of the :class:`WindowDataset`; samples are slices of that
-cache. Memory per 1,000 cached frames (two cameras, ``2 * 3 * H * W`` bytes per frame):
-~98 MB at 128x128, ~25 MB at 64x64 (low-dimensional columns add ~64 kB). A LIBERO-10 task
-(50 demonstrations of ~300 frames) is ~1.5 GB at 128x128; training on all of LIBERO-90 at
-once (MTL) would need ~66 GB.
+Memory per 1,000 decoded frames (two cameras, ``2 * 3 * H * W`` bytes per frame): ~98 MB at
+128x128, ~25 MB at 64x64 (low-dimensional columns add ~64 kB). A LIBERO-10 task (50
+demonstrations of ~300 frames) is ~1.5 GB at 128x128; training on all of LIBERO-90 at once
+(MTL) would need ~66 GB.
 
-Worker processes: :meth:`WindowDataset.preload` decodes everything in the calling process;
-DataLoader workers then share the cache (fork, copy-on-write) and never decode.
-``worker_init`` (passed by :func:`make_loader`) sets one thread per worker and clears
-lerobot's module-level video decoder cache, whose open file handles do not survive a fork.
-With ``multiprocessing_context="spawn"`` the cache is pickled into every worker instead.
-
-Batches come out of :func:`batch_to_device` (or :class:`TaskLoader`) as float32 images in
-[0, 1], channels first: ``(B, T, 3, H, W)``, with the keys of
-:mod:`libero_bench.batch_keys`. Images travel between processes as uint8 (4x less IPC).
+DataLoader workers: ``WindowDataset.preload`` decodes everything in the calling process;
+workers then share the cache (fork, copy-on-write) and never decode. ``worker_init`` sets one
+thread per worker and clears lerobot's module-level video decoder cache, whose open file
+handles do not survive a fork. With ``multiprocessing_context="spawn"`` the cache is pickled
+into every worker instead.
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import math
-from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -41,16 +32,13 @@ from libero_bench.batch_keys import (
     ACTIONS,
     AGENTVIEW,
     GRIPPER_STATES,
-    IMAGE_KEYS,
     JOINT_STATES,
-    TASK_EMB,
-    TASK_ID,
     WRIST,
 )
+from libero_data.errors import DatasetError, InputError, MissingFileError
 
 if TYPE_CHECKING:
     import torch
-    from torch.utils.data import DataLoader
 
 logger = logging.getLogger(__name__)
 
@@ -100,17 +88,19 @@ class DemoDataset:
         self.root = Path(root)
         info_path = self.root / "meta" / "info.json"
         if not self.root.is_dir():
-            raise ValueError(f"dataset folder {self.root} does not exist")
+            raise MissingFileError(f"dataset folder {self.root} does not exist")
         if not info_path.is_file():
-            raise ValueError(f"{self.root} is not a LeRobot dataset (no meta/info.json)")
+            raise DatasetError(f"{self.root} is not a LeRobot dataset (no meta/info.json)")
         self.info: dict[str, Any] = json.loads(info_path.read_text())
         features = self.info.get("features", {})
         missing = [f for f in REQUIRED_FEATURES if f not in features]
         if missing:
-            raise ValueError(f"{self.root} lacks the feature(s) {', '.join(missing)} that the policies need")
+            raise DatasetError(
+                f"{self.root} lacks the feature(s) {', '.join(missing)} that the policies need"
+            )
         for key in (OBS_IMAGE, OBS_WRIST_IMAGE):
             if features[key].get("dtype") != "video":
-                raise ValueError(f"{self.root}: feature {key} must be stored as video")
+                raise DatasetError(f"{self.root}: feature {key} must be stored as video")
         shape = features[OBS_IMAGE]["shape"]
         self.image_size = int(shape[0])
         self.fps = float(self.info["fps"])
@@ -184,7 +174,7 @@ class DemoDataset:
         for name, episodes in by_task.items():  # tasks the metadata does not list, in episode order
             tasks.append(DemoTask(name, languages[name], self.suite, None, tuple(episodes)))
         if not tasks:
-            raise ValueError(f"{self.root} holds no episodes")
+            raise DatasetError(f"{self.root} holds no episodes")
         return tasks
 
     def task(self, ref: str | int) -> DemoTask:
@@ -203,7 +193,7 @@ class DemoDataset:
         known = ", ".join(
             f"{t.suite_index}:{t.name}" if t.suite_index is not None else t.name for t in self.tasks
         )
-        raise ValueError(f"{self.root} has no task {key!r}; it has {known}")
+        raise InputError(f"{self.root} has no task {key!r}; it has {known}", field="tasks")
 
     def bddl_text(self, task: DemoTask) -> str | None:
         """The task's BDDL as stored with the dataset (``meta/bddl/<name>.bddl``), if any."""
@@ -230,7 +220,9 @@ class DemoDataset:
         from lerobot.datasets.video_utils import decode_video_frames
 
         if not 0 <= episode < len(self.episode_meta):
-            raise ValueError(f"{self.root} has episodes 0..{len(self.episode_meta) - 1}, not {episode}")
+            raise InputError(
+                f"{self.root} has episodes 0..{len(self.episode_meta) - 1}, not {episode}", field="episode"
+            )
         table = self._table()
         rows = np.flatnonzero(table["episode_index"] == episode)
         timestamps = table["timestamp"][rows].astype(np.float64)
@@ -274,180 +266,3 @@ def _resize(frames: torch.Tensor, size: int) -> torch.Tensor:
         frames.float(), size=(size, size), mode="bilinear", antialias=True, align_corners=False
     )
     return out.round().clamp(0, 255).to(torch.uint8)
-
-
-class WindowDataset:
-    """Windows of ``window`` consecutive frames over some episodes (a map-style torch dataset).
-
-    ``episodes[i]`` belongs to the run's task ``task_ids[i]`` whose embedding is
-    ``task_embs[task_ids[i]]``. Sample ``j`` is the ``j``-th (episode, start) pair in episode
-    order; images are uint8 here (see :func:`batch_to_device`).
-    """
-
-    def __init__(
-        self,
-        source: DemoDataset,
-        episodes: Sequence[int],
-        task_ids: Sequence[int],
-        task_embs: np.ndarray,
-        window: int,
-        image_size: int | None = None,
-    ) -> None:
-        if len(episodes) != len(task_ids):
-            raise ValueError("episodes and task_ids must have the same length")
-        if window <= 0:
-            raise ValueError(f"window must be positive, got {window}")
-        self.source = source
-        self.episodes = [int(e) for e in episodes]
-        self.task_ids = [int(t) for t in task_ids]
-        self.task_embs = np.asarray(task_embs, dtype=np.float32)
-        self.window = window
-        self.image_size = image_size or source.image_size
-        self._frames: dict[int, EpisodeFrames] = {}
-        index: list[tuple[int, int]] = []
-        for slot, episode in enumerate(self.episodes):
-            length = source.episode_length(episode)
-            index.extend((slot, start) for start in range(length - window + 1))
-        self.index = index
-
-    def __len__(self) -> int:
-        return len(self.index)
-
-    def frames(self, slot: int) -> EpisodeFrames:
-        """The decoded frames of ``episodes[slot]`` (decoded on first use, then cached)."""
-        cached = self._frames.get(slot)
-        if cached is None:
-            cached = self.source.load_episode(self.episodes[slot], self.image_size)
-            self._frames[slot] = cached
-        return cached
-
-    def preload(self) -> None:
-        """Decode every episode now (once), e.g. before DataLoader workers fork."""
-        for slot in range(len(self.episodes)):
-            self.frames(slot)
-
-    @property
-    def cached_bytes(self) -> int:
-        return sum(
-            f.agentview.numel()
-            + f.wrist.numel()
-            + 4 * (f.joint_states.size + f.gripper_states.size + f.actions.size)
-            for f in self._frames.values()
-        )
-
-    def __getitem__(self, i: int) -> dict[str, Any]:
-        import torch
-
-        slot, start = self.index[i]
-        f = self.frames(slot)
-        end = start + self.window
-        task_id = self.task_ids[slot]
-        return {
-            AGENTVIEW: f.agentview[start:end],
-            WRIST: f.wrist[start:end],
-            JOINT_STATES: torch.from_numpy(f.joint_states[start:end]),
-            GRIPPER_STATES: torch.from_numpy(f.gripper_states[start:end]),
-            ACTIONS: torch.from_numpy(f.actions[start:end]),
-            TASK_EMB: torch.from_numpy(self.task_embs[task_id]),
-            TASK_ID: torch.tensor(task_id, dtype=torch.int64),
-        }
-
-
-def worker_init(_worker_id: int) -> None:
-    """DataLoader worker set-up: one thread, and no video decoder inherited through fork."""
-    import torch
-
-    torch.set_num_threads(1)
-    try:
-        from lerobot.datasets.video_utils import _default_decoder_cache
-
-        _default_decoder_cache.clear()
-    except (ImportError, AttributeError):  # another lerobot version: nothing to clear
-        pass
-
-
-def make_loader(
-    dataset: WindowDataset,
-    batch_size: int,
-    *,
-    shuffle: bool,
-    seed: int,
-    workers: int = 0,
-    multiprocessing_context: str | None = None,
-) -> DataLoader:
-    """A DataLoader over ``dataset`` whose order depends only on ``seed``.
-
-    The episodes are decoded here, in the calling process, before any worker starts.
-    """
-    import torch
-    from torch.utils.data import DataLoader
-
-    dataset.preload()
-    generator = torch.Generator().manual_seed(seed)
-    return DataLoader(
-        dataset,  # type: ignore[arg-type]
-        batch_size=batch_size,
-        shuffle=shuffle,
-        generator=generator,
-        num_workers=workers,
-        worker_init_fn=worker_init if workers else None,
-        multiprocessing_context=multiprocessing_context if workers else None,
-        persistent_workers=False,
-        drop_last=False,
-    )
-
-
-def batch_to_device(batch: Mapping[str, torch.Tensor], device: torch.device | str) -> dict[str, torch.Tensor]:
-    """Move a collated batch to ``device``; uint8 images become float32 in [0, 1] there."""
-    import torch
-
-    out: dict[str, torch.Tensor] = {}
-    for key, value in batch.items():
-        value = value.to(device, non_blocking=True)
-        if key in IMAGE_KEYS and value.dtype == torch.uint8:
-            value = value.float().div_(255.0)
-        out[key] = value
-    return out
-
-
-class TaskLoader:
-    """Iterable of device batches (float images) over a :class:`WindowDataset`; each
-    iteration is one epoch, shuffled from ``seed`` and the epoch number."""
-
-    def __init__(
-        self,
-        dataset: WindowDataset,
-        batch_size: int,
-        device: torch.device | str,
-        *,
-        seed: int,
-        shuffle: bool = True,
-        workers: int = 0,
-    ) -> None:
-        if len(dataset) == 0:
-            raise ValueError(f"no training windows: every episode is shorter than {dataset.window} frames")
-        self.dataset = dataset
-        self.batch_size = batch_size
-        self.device = device
-        self.seed = seed
-        self.shuffle = shuffle
-        self.workers = workers
-        self.epoch = 0
-        dataset.preload()
-
-    def __len__(self) -> int:
-        return math.ceil(len(self.dataset) / self.batch_size)
-
-    def set_epoch(self, epoch: int) -> None:
-        self.epoch = epoch
-
-    def __iter__(self) -> Iterator[dict[str, torch.Tensor]]:
-        loader = make_loader(
-            self.dataset,
-            self.batch_size,
-            shuffle=self.shuffle,
-            seed=(self.seed * 1_000_003 + self.epoch) % 2**63,
-            workers=self.workers,
-        )
-        for batch in loader:
-            yield batch_to_device(batch, self.device)

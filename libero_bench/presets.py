@@ -9,13 +9,15 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any
 
+from libero_data.config import Config
+from libero_data.errors import InputError
 from libero_data.registry import Registry
 
 
 @dataclass(frozen=True)
-class TrainPreset:
+class TrainPreset(Config):
     """How a lifelong run trains and evaluates (the same for every task)."""
 
     name: str
@@ -79,32 +81,31 @@ class TrainPreset:
         if self.algo_size not in ("paper", "smoke"):
             self._fail("algo_size", "must be 'paper' or 'smoke'")
 
-    def _fail(self, field: str, message: str) -> None:
-        raise ValueError(f"TrainPreset.{field} {message}, got {getattr(self, field)!r}")
+    def with_overrides(self, assignments: list[str]) -> TrainPreset:
+        """A copy with ``field=value`` assignments applied (values read as JSON, else as text)."""
+        import json
+
+        fields = {f.name for f in dataclasses.fields(self)} - {"name"}
+        changes: dict[str, Any] = {}
+        for item in assignments:
+            name, sep, raw = item.partition("=")
+            name = name.strip()
+            if not sep or not name:
+                raise InputError(f"a preset override takes field=value, got {item!r}", field="set")
+            if name not in fields:
+                raise InputError(
+                    f"the preset has no field {name!r}; fields: {', '.join(sorted(fields))}", field="set"
+                )
+            try:
+                value = json.loads(raw)
+            except json.JSONDecodeError:
+                value = raw
+            changes[name] = tuple(value) if isinstance(value, list) else value
+        return self.replace(**changes) if changes else self
 
     def eval_epochs(self) -> list[int]:
         """Epochs evaluated while learning a task: 0, eval_every, ..., up to ``epochs``."""
         return list(range(0, self.epochs + 1, self.eval_every))
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-serialisable (tuples become lists)."""
-        return {
-            f.name: list(v) if isinstance(v := getattr(self, f.name), tuple) else v
-            for f in dataclasses.fields(self)
-        }
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Self:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ValueError(f"TrainPreset has no field(s) {', '.join(unknown)}")
-        kwargs: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
-        return cls(**kwargs)
-
-    def replace(self, **changes: Any) -> Self:
-        """A copy with some fields changed (validated again)."""
-        return dataclasses.replace(self, **changes)
 
 
 PAPER = TrainPreset(name="paper")

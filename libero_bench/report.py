@@ -18,7 +18,9 @@ from typing import Any
 import numpy as np
 
 from libero_bench import metrics
-from libero_bench.run_files import RunFolder, RunResults, write_json
+from libero_bench.run_files import RunFolder, RunResults
+from libero_data.errors import InputError, MissingFileError, RunError
+from libero_data.runtime.files import write_json
 
 
 @dataclass
@@ -72,15 +74,15 @@ class RunSummary:
 
 
 def load_run(path: str | Path) -> RunSummary:
-    """Read a run folder; ``ValueError`` when it is not one or has no finished task."""
+    """Read a run folder; :class:`RunError` when it is not one or has no finished task."""
     folder = RunFolder(Path(path))
     if not folder.root.is_dir():
-        raise ValueError(f"run folder {folder.root} does not exist")
+        raise MissingFileError(f"run folder {folder.root} does not exist")
     config = folder.read_config()
     results = folder.read_results()
     done = results.finished_tasks
     if done == 0:
-        raise ValueError(f"run {folder.root} has not finished its first task yet")
+        raise RunError(f"run {folder.root} has not finished its first task yet")
     return RunSummary(folder.root, config, results, done)
 
 
@@ -255,7 +257,7 @@ def write_report(run_paths: Sequence[str | Path], out: str | Path) -> dict[str, 
     """Write ``report.json``, ``report.md`` and the PNGs into ``out``; returns the summary
     (with ``files``: what was written)."""
     if not run_paths:
-        raise ValueError("give at least one run folder")
+        raise InputError("give at least one run folder", field="runs")
     runs = [load_run(p) for p in run_paths]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

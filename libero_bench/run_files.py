@@ -17,11 +17,12 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from libero_data.errors import InputError, RunError
 
 CONFIG = "config.json"
 RESULTS = "results.json"
@@ -34,17 +35,6 @@ WORK = ".work"
 RUN_FORMAT = "libero-bench-run/1"
 
 LEARNING, PRUNED, AFTER = "learning", "pruned", "after"
-
-
-def write_json(path: Path, data: Any) -> None:
-    """Write JSON atomically (temporary file, fsync, rename)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    with tmp.open("w") as f:
-        f.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
-        f.flush()
-        os.fsync(f.fileno())
-    tmp.replace(path)
 
 
 def rollout_key(learned_after: int, phase: str, task: int, rollout: int, epoch: int | None = None) -> str:
@@ -202,16 +192,30 @@ class RunFolder:
 
     def read_config(self) -> dict[str, Any]:
         if not self.config.is_file():
-            raise ValueError(f"{self.root} is not a libero-bench run folder (no {CONFIG})")
+            raise RunError(f"{self.root} is not a libero-bench run folder (no {CONFIG})")
         data = json.loads(self.config.read_text())
         if data.get("format") != RUN_FORMAT:
-            raise ValueError(f"{self.config} is not a {RUN_FORMAT} config")
+            raise RunError(f"{self.config} is not a {RUN_FORMAT} config")
         return dict(data)
 
     def read_results(self) -> RunResults:
         if not self.results.is_file():
-            raise ValueError(f"{self.root} has no results yet ({RESULTS} is missing)")
+            raise RunError(f"{self.root} has no results yet ({RESULTS} is missing)")
         return RunResults.from_dict(json.loads(self.results.read_text()))
+
+    def rollout_recording(
+        self, task: Mapping[str, Any], rollouts: list[dict[str, Any]], index: int
+    ) -> tuple[dict[str, Any], Path]:
+        """The ``index``-th of a task's rollout records and its Rerun recording."""
+        if not 0 <= index < len(rollouts):
+            raise InputError(
+                f"task {task['name']} has rollouts 0..{len(rollouts) - 1}, not {index}", field="rollout"
+            )
+        record = rollouts[index]
+        source = self.rrd_file(record["key"])
+        if not source.is_file():
+            raise RunError(f"the recording {source} is missing")
+        return record, source
 
     def append_timing(self, record: Mapping[str, Any]) -> None:
         with self.timings.open("a") as f:
@@ -229,4 +233,16 @@ def find_task(config: Mapping[str, Any], ref: str) -> dict[str, Any]:
         if 0 <= i < len(tasks):
             return dict(tasks[i])
     names = ", ".join(f"{t['position']}:{t['name']}" for t in tasks)
-    raise ValueError(f"the run has no task {ref!r}; its tasks are {names}")
+    raise InputError(f"the run has no task {ref!r}; its tasks are {names}", field="task")
+
+
+def task_rollouts(folder: RunFolder, ref: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """A task of the run (by name or position) and its rollouts' records, in run order."""
+    chosen = find_task(folder.read_config(), ref)
+    results = folder.read_results()
+    mine = sorted(
+        (r for r in results.rollouts if r["task_position"] == chosen["position"]), key=lambda r: r["key"]
+    )
+    if not mine:
+        raise RunError(f"task {chosen['name']} has no rollouts in {folder.root} yet")
+    return chosen, mine

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from libero_bench.run_files import RunFolder, find_task
+from libero_data.errors import InputError, RunError
 
 logger = logging.getLogger(__name__)
 
@@ -26,8 +28,48 @@ def _checkpoint_path(folder: RunFolder, config: dict, position: int) -> Path:
     path = folder.checkpoint(index)
     if not path.is_file():
         name = config["tasks"][position]["name"]
-        raise ValueError(f"{folder.root} has no checkpoint after task {name} yet")
+        raise RunError(f"{folder.root} has no checkpoint after task {name} yet")
     return path
+
+
+def _policy_for(config: dict, checkpoint: Path, position: int) -> tuple[Any, Any]:
+    """(policy, algorithm) of a checkpoint, in the algorithm's evaluation view of the task."""
+    import torch
+
+    from libero_bench.algos import ALGOS, algo_config_from_dict
+    from libero_bench.policies import POLICIES, config_from_dict
+
+    pconfig = config_from_dict(config["policy_config"])
+    policy = POLICIES.get(pconfig.name).from_config(pconfig)
+    state = torch.load(checkpoint, map_location="cpu", weights_only=False)
+    policy.load_state_dict(state["policy"])
+    acfg = algo_config_from_dict(config["algo_config"])
+    algo = ALGOS.get(acfg.name)(acfg)
+    algo.load_state_dict(state["algo"])
+    algo.bind(policy)
+    algo.set_eval_task(position)
+    return policy.eval(), algo
+
+
+def _episode_for(folder: RunFolder, config: dict, chosen: dict, source: str, rollout: int) -> tuple[Any, int]:
+    """(dataset, episode index) of the task's first demonstration or its ``rollout``-th rollout."""
+    from libero_bench.data import DemoDataset
+
+    if source == "demo":
+        data = DemoDataset(config["data"])
+        episodes = chosen.get("episodes") or list(data.task(chosen["name"]).episodes)
+        return data, int(episodes[0])
+    if source == "rollout":
+        data = DemoDataset(folder.rollouts)
+        mine = [i for i, row in enumerate(data.episode_meta) if row.get("task_name") == chosen["name"]]
+        if not mine:
+            raise RunError(f"{folder.rollouts} has no rollouts of task {chosen['name']}")
+        if rollout >= len(mine):
+            raise InputError(
+                f"task {chosen['name']} has rollouts 0..{len(mine) - 1}, not {rollout}", field="rollout"
+            )
+        return data, mine[rollout]
+    raise InputError(f"the source must be demo or rollout, got {source!r}", field="source")
 
 
 def saliency_for_run(
@@ -42,13 +84,9 @@ def saliency_for_run(
     stride: int = 5,
 ) -> list[Path]:
     """Write ``frame_NNNNN.png`` overlays and ``saliency.rrd`` into ``out``; returns the paths."""
-    import torch
     from PIL import Image
 
-    from libero_bench.algos import ALGOS, algo_config_from_dict
-    from libero_bench.data import DemoDataset
     from libero_bench.language import encode_tasks
-    from libero_bench.policies import POLICIES, config_from_dict
     from libero_bench.rerun_log import write_saliency_rrd
     from libero_bench.saliency import overlay, saliency_map
 
@@ -57,44 +95,17 @@ def saliency_for_run(
     chosen = find_task(config, task)
     position = int(chosen["position"])
     kept = find_task(config, after) if after is not None else chosen
-    checkpoint = _checkpoint_path(folder, config, int(kept["position"]))
-
-    pconfig = config_from_dict(config["policy_config"])
-    policy = POLICIES.get(pconfig.name).from_config(pconfig)
-    state = torch.load(checkpoint, map_location="cpu", weights_only=False)
-    policy.load_state_dict(state["policy"])
-    acfg = algo_config_from_dict(config["algo_config"])
-    algo = ALGOS.get(acfg.name)(acfg)
-    algo.load_state_dict(state["algo"])
-    algo.bind(policy)
-    algo.set_eval_task(position)
-    policy.eval()
-
+    policy, algo = _policy_for(config, _checkpoint_path(folder, config, int(kept["position"])), position)
     languages = [t["language"] for t in config["tasks"]]
     emb = encode_tasks(languages, config["preset"]["language_encoder"])[position]
-    image_size = int(pconfig.image_size)
-
-    if source == "demo":
-        data = DemoDataset(config["data"])
-        episodes = chosen.get("episodes") or list(data.task(chosen["name"]).episodes)
-        episode = int(episodes[0])
-    elif source == "rollout":
-        data = DemoDataset(folder.rollouts)
-        mine = [i for i, row in enumerate(data.episode_meta) if row.get("task_name") == chosen["name"]]
-        if not mine:
-            raise ValueError(f"{folder.rollouts} has no rollouts of task {chosen['name']}")
-        if rollout >= len(mine):
-            raise ValueError(f"task {chosen['name']} has rollouts 0..{len(mine) - 1}, not {rollout}")
-        episode = mine[rollout]
-    else:
-        raise ValueError(f"--source must be demo or rollout, got {source!r}")
-    decoded = data.load_episode(episode, image_size)
+    data, episode = _episode_for(folder, config, chosen, source, rollout)
+    decoded = data.load_episode(episode, int(policy.config.image_size))
     length = len(decoded)
     if frames is None:
         frames = sorted({round(float(x)) for x in np.linspace(0, length - 1, min(4, length))})
     bad = [f for f in frames if not 0 <= f < length]
     if bad:
-        raise ValueError(f"the episode has frames 0..{length - 1}, not {bad[0]}")
+        raise InputError(f"the episode has frames 0..{length - 1}, not {bad[0]}", field="frames")
 
     target = Path(out) if out is not None else folder.root / "saliency" / chosen["name"]
     target.mkdir(parents=True, exist_ok=True)

@@ -1,16 +1,66 @@
-"""Which machines made a dataset's episodes: numeric fingerprints and OpenGL renderers.
+"""Provenance: the code and the machines that made an artifact.
 
-Each episode's ``episode.json`` (and its MCAP log) carries the whole fingerprint of the process
-that searched it (``libero_data.numerics.machine_fingerprint``) and the OpenGL strings of the
-renderer that drew its images. The dataset lists each distinct one once (``meta/libero.json``
-and the card); a row of ``meta/libero_episodes.jsonl`` names its machine by the fingerprint's
-key, so that file stays small however many episodes there are.
+- **Expert code.** :func:`expert_code` is a short hash of the code that decides an expert
+  episode (:data:`EPISODE_CODE`: the expert and the simulator). Datasets
+  record it per episode, the expert report refuses to mix rows of two codes, and ``validate``
+  checks replays exactly only against the same code.
+- **Machines.** Each episode's ``episode.json`` (and its MCAP log) carries the whole numeric
+  fingerprint of the process that searched it (``libero_data.numerics.machine_fingerprint``)
+  and the OpenGL strings of the renderer that drew its images. A dataset lists each distinct
+  one once (``meta/libero.json`` and the card); a row of ``meta/libero_episodes.jsonl`` names
+  its machine by the fingerprint's key, so that file stays small however many episodes there are.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
+
+_PACKAGE = Path(__file__).resolve().parent
+#: The code that decides an expert episode, relative to the package: folders (every module in
+#: them, recursively) and modules. Measuring, recording and tables are left out on purpose:
+#: rewording a table must not make measured episodes stale. The seeds an episode gets
+#: (``libero_data.seeding``) are frozen instead, their values pinned by tests.
+EPISODE_CODE = ("experts", "sim")
+#: Modules inside those folders that do not decide an episode.
+NOT_EPISODE_CODE = ("experts/report.py",)
+
+
+@functools.cache
+def expert_code() -> str:
+    """12 hex digits naming the code that decides an expert episode (:data:`EPISODE_CODE`)."""
+    paths: list[Path] = []
+    for entry in EPISODE_CODE:
+        path = _PACKAGE / entry
+        paths.extend(path.rglob("*.py") if path.is_dir() else [path])
+    skip = {_PACKAGE / p for p in NOT_EPISODE_CODE}
+    return code_digest(sorted(p for p in paths if p not in skip), _PACKAGE)
+
+
+def code_digest(paths: Iterable[Path], root: Path) -> str:
+    """12 hex digits of sha256 over the files' paths (relative to ``root``) and their code,
+    with comments, docstrings and formatting left out (the code as Python reads it)."""
+    import ast
+
+    digest = hashlib.sha256()
+    for path in paths:
+        tree = ast.parse(path.read_bytes(), filename=str(path))
+        for node in ast.walk(tree):
+            body = getattr(node, "body", None)
+            if (
+                isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+                and body
+                and isinstance(body[0], ast.Expr)
+                and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)
+            ):
+                node.body = body[1:] or [ast.Pass()]
+        digest.update(Path(path).relative_to(root).as_posix().encode())
+        digest.update(ast.unparse(tree).encode())
+    return digest.hexdigest()[:12]
 
 
 def compact_row(info: dict[str, Any]) -> dict[str, Any]:

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from libero_data.errors import InputError
 from libero_data.tasks import Task
 
 
@@ -31,7 +32,7 @@ def render_initial_scene(
     if task.init_states_path is not None:
         states = task.init_states()
         if not 0 <= init < len(states):
-            raise ValueError(f"task {task.id} has init states 0..{len(states) - 1}, not {init}")
+            raise InputError(f"task {task.id} has init states 0..{len(states) - 1}, not {init}", field="init")
         state = states[init]
     out = Path(out)
     with LiberoEnv(task, EnvConfig(image_size=size, renderer=renderer)) as env:

@@ -41,6 +41,9 @@ def test_tasks_table() -> None:
         (("show", "libero_goal/42"), "suite libero_goal has tasks 0..9, not 42"),
         (("show", "pick_up_the_alphabet_soup"), "unknown task 'pick_up_the_alphabet_soup'"),
         (("show", "missing.bddl"), "BDDL file missing.bddl does not exist"),
+        # A field the library names, mapped to the command's option.
+        (("generate", "--tasks", "0,0", "--out", "unused"), "the task list names a task twice (--tasks)"),
+        (("generate", "--suite", "libero_goal", "--out", "unused", "--executor", "dask"), "(--executor)"),
     ],
 )
 def test_bad_input_is_one_sentence_and_exit_2(args: tuple[str, ...], message: str) -> None:

@@ -32,12 +32,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
 from torch import Tensor
 
 from libero_bench.policies.base import Policy
+from libero_data.config import Config
 from libero_data.registry import Registry
 
 logger = logging.getLogger(__name__)
@@ -48,29 +49,15 @@ DataloaderFactory = Callable[[], Iterable[Batch]]
 
 
 @dataclass(frozen=True)
-class AlgoConfig:
-    """Base of the algorithm configs (frozen, validated, JSON-friendly)."""
+class AlgoConfig(Config):
+    """Base of the algorithm configs (on the project's one config base)."""
 
     name: ClassVar[str] = ""
-
-    def _fail(self, field: str, message: str) -> None:
-        raise ValueError(f"{type(self).__name__}.{field} {message}, got {getattr(self, field)!r}")
 
     @classmethod
     def smoke(cls) -> Self:
         """Settings for tiny CPU runs (the paper's by default)."""
         return cls()
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"type": self.name, **asdict(self)}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Self:
-        data = dict(data)
-        kind = data.pop("type", cls.name)
-        if kind != cls.name:
-            raise ValueError(f"config type {kind!r} does not match {cls.__name__} ({cls.name!r})")
-        return cls(**data)
 
 
 class Algo:

@@ -19,7 +19,7 @@ from libero_data.bddl.model import (
     atoms,
 )
 from libero_data.bddl.parser import parse, parse_file
-from libero_data.bddl.writer import write
+from libero_data.bddl.writer import formula_text, write
 
 __all__ = [
     "PREDICATES",
@@ -33,6 +33,7 @@ __all__ = [
     "Problem",
     "Region",
     "atoms",
+    "formula_text",
     "parse",
     "parse_file",
     "write",

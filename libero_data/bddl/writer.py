@@ -6,6 +6,7 @@ The output loads in LIBERO's own parser unchanged, and ``parse(write(p)) == p``.
 from __future__ import annotations
 
 from libero_data.bddl.model import And, Atom, Entity, Formula, Not, Or, Problem, Region
+from libero_data.errors import BDDLError
 
 
 def _num(value: float) -> str:
@@ -13,14 +14,15 @@ def _num(value: float) -> str:
     return repr(float(value))
 
 
-def _formula(formula: Formula) -> str:
+def formula_text(formula: Formula) -> str:
+    """A goal formula as BDDL writes it, e.g. ``(And (Open a) (On b c))``."""
     if isinstance(formula, Atom):
         return str(formula)
     if isinstance(formula, Not):
-        return f"(Not {_formula(formula.term)})"
+        return f"(Not {formula_text(formula.term)})"
     head = "And" if isinstance(formula, And) else "Or"
     assert isinstance(formula, (And, Or))
-    return f"({head} {' '.join(_formula(t) for t in formula.terms)})"
+    return f"({head} {' '.join(formula_text(t) for t in formula.terms)})"
 
 
 def _region(region: Region) -> list[str]:
@@ -47,7 +49,7 @@ def _typed(entities: tuple[Entity, ...]) -> list[str]:
 def write(problem: Problem) -> str:
     """Serialise a problem as BDDL text."""
     if "(" in problem.language or ")" in problem.language:
-        raise ValueError("language must not contain parentheses")
+        raise BDDLError("the language sentence must not contain parentheses", source=problem.problem)
     lines = [
         f"(define (problem {problem.problem})",
         f"  (:domain {problem.domain})",
@@ -60,5 +62,5 @@ def write(problem: Problem) -> str:
     lines += ["  (:objects", *_typed(problem.objects), "  )", ""]
     lines += ["  (:obj_of_interest", *[f"    {n}" for n in problem.obj_of_interest], "  )", ""]
     lines += ["  (:init", *[f"    {a}" for a in problem.init], "  )", ""]
-    lines += ["  (:goal", f"    {_formula(problem.goal)}", "  )", "", ")", ""]
+    lines += ["  (:goal", f"    {formula_text(problem.goal)}", "  )", "", ")", ""]
     return "\n".join(lines)

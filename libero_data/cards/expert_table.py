@@ -8,9 +8,13 @@ episode: rewording a table does not throw measured tasks away.
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from libero_data.errors import MissingFileError
+from libero_data.runtime.files import write_text
 
 if TYPE_CHECKING:
     from libero_data.experts.report import TaskResult
@@ -82,7 +86,6 @@ def write_report(
 ) -> tuple[Path, Path]:
     """Write ``expert_report.csv`` and ``expert_report.md`` into ``out_dir``."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     csv_path, md_path = out / "expert_report.csv", out / "expert_report.md"
     fields = [
         "suite",
@@ -95,18 +98,17 @@ def write_report(
         "seconds_per_episode",
         "failures",
     ]
-    tmp = csv_path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=fields)
-        writer.writeheader()
-        for r in results:
-            row = asdict(r)
-            row["rate"] = f"{r.rate:.3f}"
-            row["mean_length"] = f"{r.mean_length:.1f}"
-            row["seconds_per_episode"] = f"{r.seconds_per_episode:.2f}"
-            row["failures"] = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
-            writer.writerow(row)
-    tmp.replace(csv_path)
+    table = io.StringIO(newline="")
+    writer = csv.DictWriter(table, fieldnames=fields)
+    writer.writeheader()
+    for r in results:
+        row = asdict(r)
+        row["rate"] = f"{r.rate:.3f}"
+        row["mean_length"] = f"{r.mean_length:.1f}"
+        row["seconds_per_episode"] = f"{r.seconds_per_episode:.2f}"
+        row["failures"] = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
+        writer.writerow(row)
+    write_text(csv_path, table.getvalue())
     lines = ["# Scripted expert: success over stored init states", ""]
     for key, value in (meta or {}).items():
         lines.append(f"- {key}: {value}")
@@ -141,7 +143,31 @@ def write_report(
         lines.append(
             f"| {r.suite}/{r.index} | {language_from_name(r.name)} | {r.successes}/{r.episodes} | {r.mean_length:.0f} | {fails} |"
         )
-    tmp = md_path.with_suffix(".md.tmp")
-    tmp.write_text("\n".join(lines) + "\n")
-    tmp.replace(md_path)
+    write_text(md_path, "\n".join(lines) + "\n")
     return csv_path, md_path
+
+
+def read_rates(csv_path: Path) -> dict[str, tuple[int, int]]:
+    """{task name: (successes, episodes)} of an ``expert_report.csv``."""
+    if not Path(csv_path).is_file():
+        raise MissingFileError(f"expert report {csv_path} does not exist")
+    with Path(csv_path).open(newline="") as f:
+        return {row["name"]: (int(row["successes"]), int(row["episodes"])) for row in csv.DictReader(f)}
+
+
+def report_settings(journal: Path) -> dict[str, str] | None:
+    """Expert code, init states and seed from an expert report's journal header, if it has one."""
+    import json
+
+    try:
+        settings = json.loads(Path(journal).read_text().split("\n", 1)[0])["settings"]
+        found = {
+            "expert code": str(settings["expert"]),
+            "init states per task": str(settings["inits"]),
+            "seed": str(settings["seed"]),
+        }
+        if "numeric_key" in settings:  # reports since machines were recorded
+            found["numeric path"] = str(settings["numeric_key"])
+        return found
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # no journal beside the table (or not one): the card just says less

@@ -11,6 +11,7 @@ without any per-object rule.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,207 +39,269 @@ class Grasp:
     opening: float = MAX_OPENING  # finger opening on the way down (less: a pre-shaped hand)
 
 
+@dataclass(frozen=True)
+class GraspSearch:
+    """How :func:`plan_top_down` searches.
+
+    ``depths``: how far below the object's top the grip site goes, in the order tried.
+    ``pad_tolerance``: how far (m) the object may stand out beyond the pads' contact higher up
+    the fingers (flared walls): small is safe, larger admits thin flared rims. ``opening``
+    below the full opening plans for a pre-shaped hand that comes down with its fingers only
+    that far apart: then one finger can go inside a bowl and pinch its wall, where a fully open
+    hand would reach the far wall. ``limit`` stops the search after that many feasible grasps
+    (``limit=1`` answers "is there any?" cheaply).
+    """
+
+    depths: tuple[float, ...] = (0.025, 0.015, 0.035, 0.008)
+    n_yaw: int = 12
+    spacing: float = 0.01
+    max_points: int = 2500
+    pad_tolerance: float = 0.004
+    opening: float = MAX_OPENING
+    limit: int | None = None
+
+
+@dataclass(frozen=True)
+class FixturePart:
+    """A part of a fixture to grasp instead of a whole object (a stove's knob): its points,
+    the bodies that are not obstacles, and the point to grasp close to."""
+
+    points: np.ndarray
+    bodies: tuple[int, ...]
+    prefer: np.ndarray
+
+
+#: Points as coordinates along a closing line, across it and up, sorted by the second.
+_Sorted = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+class _Line(NamedTuple):
+    """The points near one closing line: the object's on the line (``o``), and everything's
+    around it (``l``), each as coordinates along, across and up; the line's offset and top."""
+
+    du_o: np.ndarray
+    dv_o: np.ndarray
+    z_o: np.ndarray
+    du_l: np.ndarray
+    dv_l: np.ndarray
+    z_l: np.ndarray
+    cv: float
+    top: float
+
+
 def plan_top_down(
     scene: SceneView,
     name: str,
     *,
     yaw_reference: float,
-    depth: float | tuple[float, ...] = (0.025, 0.015, 0.035, 0.008),
-    n_yaw: int = 12,
-    spacing: float = 0.01,
-    support: float | None = None,
-    extra_obstacles: tuple[str, ...] = (),
-    max_points: int = 2500,
-    prefer: np.ndarray | None = None,
+    search: GraspSearch = GraspSearch(),
+    part: FixturePart | None = None,
     stats: dict[str, int] | None = None,
-    points: np.ndarray | None = None,
-    exclude: tuple[str, ...] | None = None,
-    exclude_bodies: tuple[int, ...] = (),
-    pad_tolerance: float = 0.004,
-    limit: int | None = None,
-    opening: float = MAX_OPENING,
 ) -> list[Grasp]:
-    """Feasible top-down grasps of ``name``, best first (empty when none fits).
-
-    ``stats``, when given, counts the candidates rejected for each reason. ``points``
-    replaces the object's own points (a part of a fixture, such as a knob); then
-    ``exclude`` names what else is not an obstacle (default: ``name``). ``pad_tolerance``
-    is how far (m) the object may stand out beyond the pads' contact higher up the fingers
-    (flared walls): small is safe, larger admits thin flared rims. ``limit`` stops the
-    search after that many feasible grasps (``limit=1`` answers "is there any?" cheaply).
-    ``opening`` below the full opening plans for a pre-shaped hand that comes down with its
-    fingers only that far apart: then one finger can go inside a bowl and pinch its wall,
-    where a fully open hand would reach the far wall.
-    """
+    """Feasible top-down grasps of ``name`` (or of a ``part`` of it), best first; empty when
+    none fits. ``stats``, when given, counts the candidates rejected for each reason."""
     stats = {} if stats is None else stats
-    depths = (depth,) if isinstance(depth, float) else tuple(depth)
-
-    def reject(reason: str) -> None:
-        stats[reason] = stats.get(reason, 0) + 1
-
-    obj = _subsample(scene.points(name) if points is None else points, max_points)
+    obj = _subsample(scene.points(name) if part is None else part.points, search.max_points)
     lo, hi = obj.min(0), obj.max(0)
     margin = 0.12
     others = scene.obstacle_points(
-        exclude=(name, *extra_obstacles) if exclude is None else exclude, exclude_bodies=exclude_bodies
+        exclude=(name,) if part is None else (), exclude_bodies=() if part is None else part.bodies
     )
     near = np.all((others[:, :2] > lo[:2] - margin) & (others[:, :2] < hi[:2] + margin), axis=1)
-    others = _subsample(others[near], max_points)
-    floor = support if support is not None else _support_below(others, lo, hi)
+    others = _subsample(others[near], search.max_points)
+    floor = _support_below(others, lo, hi)
     everything = np.concatenate([obj, others]) if len(others) else obj
-    if prefer is not None:
-        com = np.asarray(prefer)[:2]
-    else:
-        com = scene.com(name)[:2] if points is None else obj.mean(0)[:2]
+    com = scene.com(name)[:2] if part is None else np.asarray(part.prefer)[:2]
 
-    xs = np.arange(lo[0], hi[0] + 1e-9, spacing)
-    ys = np.arange(lo[1], hi[1] + 1e-9, spacing)
+    xs = np.arange(lo[0], hi[0] + 1e-9, search.spacing)
+    ys = np.arange(lo[1], hi[1] + 1e-9, search.spacing)
     centres = np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2)
     candidates: list[Grasp] = []
-    for k in range(n_yaw):
-        yaw = np.pi * k / n_yaw
+    for k in range(search.n_yaw):
+        yaw = np.pi * k / search.n_yaw
         u = np.array([np.cos(yaw), np.sin(yaw)])
         v = np.array([-u[1], u[0]])
         # Points sorted across the closing line: each candidate then looks only at the
         # slice of points near its line (a binary search), not at every point.
-        o_u, o_v, o_z = _sorted_by_v(obj, u, v)
-        e_u, e_v, e_z = _sorted_by_v(everything, u, v)
+        sorted_obj, sorted_all = _sorted_by_v(obj, u, v), _sorted_by_v(everything, u, v)
         for c in centres:
-            cu, cv = float(c @ u), float(c @ v)
-            du_o, dv_o, z_o = _near(o_u, o_v, o_z, cv, FINGER_HALF_WIDTH)
-            in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < opening / 2)
-            if in_line.sum() < 3:
-                reject("empty")
+            line = _closing_line(c, u, v, sorted_obj, sorted_all, search.opening)
+            if line is None:
+                stats["empty"] = stats.get("empty", 0) + 1
                 continue
-            # From here on only the points on this closing line matter.
-            du_o, dv_o, z_o = du_o[in_line], dv_o[in_line], z_o[in_line]
-            top = float(z_o.max())
-            # Only what is near this closing line can touch the hand.
-            du_e, dv_e, z_e = _near(e_u, e_v, e_z, cv, PALM_HALF[1] + 0.04)
-            local = (np.abs(du_e - cu) < PALM_HALF[0] + 0.06) & (np.abs(dv_e - cv) < PALM_HALF[1] + 0.04)
-            du_l, dv_l, z_l = du_e[local], dv_e[local], z_e[local]
-            for grasp_depth_goal in depths:
-                z = max(top - grasp_depth_goal, floor + TIP_BELOW_SITE + 0.001)
-                if z > top - 0.003:
-                    reject("shallow")
+            for depth in search.depths:
+                found = _grasp_on(line, depth, floor, u, v, yaw, com, yaw_reference, search)
+                if isinstance(found, str):
+                    stats[found] = stats.get(found, 0) + 1
                     continue
-                span = (z_o > z - TIP_BELOW_SITE) & (z_o < z + FINGER_LENGTH)
-                if span.sum() < 3:
-                    reject("span")
-                    continue
-                lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
-                width = hi_u - lo_u
-                if width > opening - 0.01 or width < 0.004:
-                    reject("width")
-                    continue
-                # The pads must make the first contact on both sides: the outermost points
-                # between the fingers lie in front of the pads, not at a finger's edge or top.
-                pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(z_o - z) < PAD_HALF + 0.002)
-                if (
-                    pads.sum() < 2
-                    or float(du_o[pads].min()) - lo_u > pad_tolerance
-                    or hi_u - float(du_o[pads].max()) > pad_tolerance
-                ):
-                    reject("pads")
-                    continue
-                # Antipodal contacts: across each pad, the contact surface must face the pad
-                # (not run along the closing direction, as a chord across a bowl's edge does),
-                # or the squeeze slides off. Compare the surface's position at both pad edges.
-                band = pads & (np.abs(z_o - z) < PAD_HALF)
-                sides_ok = True
-                for sign in (1.0, -1.0):
-                    left = band & (dv_o - cv > -PAD_HALF) & (dv_o - cv < -0.002)
-                    right = band & (dv_o - cv > 0.002) & (dv_o - cv < PAD_HALF)
-                    if left.sum() < 2 or right.sum() < 2:
-                        continue
-                    edge_l = float((sign * du_o[left]).max())
-                    edge_r = float((sign * du_o[right]).max())
-                    if abs(edge_l - edge_r) > 0.8 * (PAD_HALF + 0.002):
-                        sides_ok = False
-                if not sides_ok:
-                    reject("slanted")
-                    continue
-                # Squeezing a wide body whose sides flare out above the pads pushes it down
-                # out of the fingers (bowls held from outside): not allowed beyond 1.5 mm.
-                if width > 0.02:
-                    above = span & (z_o > z + PAD_HALF)
-                    if above.any() and (
-                        float(du_o[pads].min()) - float(du_o[above].min()) > 0.0015
-                        or float(du_o[above].max()) - float(du_o[pads].max()) > 0.0015
-                    ):
-                        reject("flare")
-                        continue
-                mid = (lo_u + hi_u) / 2
-                gu = mid
-                # The fingers come down outside [lo_u, hi_u]: nothing may be there.
-                rel_u = du_l - gu
-                rel_v = np.abs(dv_l - cv)
-                inner = opening / 2
-                in_fingers = (
-                    (np.abs(rel_u) > width / 2 + 0.002)
-                    & (np.abs(rel_u) < inner + FINGER_THICKNESS)
-                    & (rel_v < FINGER_HALF_WIDTH)
-                    & (z_l > z - TIP_BELOW_SITE)
-                )
-                if in_fingers.any():
-                    reject("fingers")
-                    continue
-                in_palm = (np.abs(rel_u) < PALM_HALF[0]) & (rel_v < PALM_HALF[1]) & (z_l > z + FINGER_LENGTH)
-                if in_palm.any():
-                    reject("palm")
-                    continue
-                # Clearance: distance from the finger volumes to the nearest other point.
-                band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (z_l > z - TIP_BELOW_SITE)
-                outside = band & (np.abs(rel_u) > inner + FINGER_THICKNESS)
-                clearance = 0.03
-                if outside.any():
-                    clearance = min(
-                        clearance, float((np.abs(rel_u[outside]) - inner - FINGER_THICKNESS).min())
-                    )
-                xy = gu * u + cv * v
-                off_centre = float(np.linalg.norm(xy - com))
-                grasp_depth = top - z
-                # Off-centre (rim) grasps hold best when the fingers close across the wall, i.e.
-                # along the line from the centre: penalise closing at an angle to it.
-                across = 0.0
-                if off_centre > 0.015:
-                    radial = (xy - com) / off_centre
-                    across = abs(float(radial @ v)) * min(off_centre / 0.03, 1.0)
-                yaw_w = wrap_half_turn(yaw, yaw_reference)
-                score = (
-                    -off_centre / 0.02
-                    + min(grasp_depth, 0.03) / 0.01
-                    + clearance / 0.01
-                    - abs(yaw_w - yaw_reference) / 1.0
-                    - max(width - 0.06, 0.0) / 0.01
-                    - max(0.012 - width, 0.0) / 0.004  # thin features (handles, edges) slip more
-                    - across * 2.0
-                )
-                candidates.append(
-                    Grasp(
-                        pos=np.array([xy[0], xy[1], z]),
-                        mat=top_down(yaw_w),
-                        yaw=yaw_w,
-                        width=width,
-                        score=score,
-                        opening=opening,
-                    )
-                )
-                if limit is not None and len(candidates) >= limit:
+                candidates.append(found)
+                if search.limit is not None and len(candidates) >= search.limit:
                     return sorted(candidates, key=lambda g: -g.score)
     candidates.sort(key=lambda g: -g.score)
     return candidates
 
 
-def has_top_down_grasp(scene: SceneView, name: str) -> bool:
-    """Whether any top-down grasp fits ``name``, with the strict or the loose pad rule."""
-    return bool(
-        plan_top_down(scene, name, yaw_reference=0.0, limit=1)
-        or plan_top_down(scene, name, yaw_reference=0.0, pad_tolerance=0.008, limit=1)
+def _closing_line(
+    c: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    sorted_obj: _Sorted,
+    sorted_all: _Sorted,
+    opening: float,
+) -> _Line | None:
+    """The points that matter for a closing line through ``c`` along ``u`` (None: too few of
+    the object's)."""
+    cu, cv = float(c @ u), float(c @ v)
+    du_o, dv_o, z_o = _near(*sorted_obj, cv, FINGER_HALF_WIDTH)
+    in_line = (np.abs(dv_o - cv) < FINGER_HALF_WIDTH) & (np.abs(du_o - cu) < opening / 2)
+    if in_line.sum() < 3:
+        return None
+    # From here on only the points on this closing line matter.
+    du_o, dv_o, z_o = du_o[in_line], dv_o[in_line], z_o[in_line]
+    # Only what is near this closing line can touch the hand.
+    du_e, dv_e, z_e = _near(*sorted_all, cv, PALM_HALF[1] + 0.04)
+    local = (np.abs(du_e - cu) < PALM_HALF[0] + 0.06) & (np.abs(dv_e - cv) < PALM_HALF[1] + 0.04)
+    return _Line(du_o, dv_o, z_o, du_e[local], dv_e[local], z_e[local], cv, float(z_o.max()))
+
+
+def _grasp_on(
+    line: _Line,
+    depth: float,
+    floor: float,
+    u: np.ndarray,
+    v: np.ndarray,
+    yaw: float,
+    com: np.ndarray,
+    yaw_reference: float,
+    search: GraspSearch,
+) -> Grasp | str:
+    """The grasp on ``line`` at ``depth`` below its top, or the reason there is none."""
+    top = line.top
+    z = max(top - depth, floor + TIP_BELOW_SITE + 0.001)
+    if z > top - 0.003:
+        return "shallow"
+    held = _held_between_pads(line, z, search)
+    if isinstance(held, str):
+        return held
+    lo_u, hi_u = held
+    width = hi_u - lo_u
+    clearance = _finger_clearance(line, z, (lo_u + hi_u) / 2, width, search.opening)
+    if isinstance(clearance, str):
+        return clearance
+    xy = (lo_u + hi_u) / 2 * u + line.cv * v
+    off_centre = float(np.linalg.norm(xy - com))
+    grasp_depth = top - z
+    # Off-centre (rim) grasps hold best when the fingers close across the wall, i.e.
+    # along the line from the centre: penalise closing at an angle to it.
+    across = 0.0
+    if off_centre > 0.015:
+        radial = (xy - com) / off_centre
+        across = abs(float(radial @ v)) * min(off_centre / 0.03, 1.0)
+    yaw_w = wrap_half_turn(yaw, yaw_reference)
+    score = (
+        -off_centre / 0.02
+        + min(grasp_depth, 0.03) / 0.01
+        + clearance / 0.01
+        - abs(yaw_w - yaw_reference) / 1.0
+        - max(width - 0.06, 0.0) / 0.01
+        - max(0.012 - width, 0.0) / 0.004  # thin features (handles, edges) slip more
+        - across * 2.0
+    )
+    return Grasp(
+        pos=np.array([xy[0], xy[1], z]),
+        mat=top_down(yaw_w),
+        yaw=yaw_w,
+        width=width,
+        score=score,
+        opening=search.opening,
     )
 
 
-def _sorted_by_v(points: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+def _held_between_pads(line: _Line, z: float, search: GraspSearch) -> tuple[float, float] | str:
+    """The object's extent (along the closing line) between the fingers at height ``z``, if
+    the pads hold it; else the reason they would not."""
+    du_o, dv_o, z_o, cv = line.du_o, line.dv_o, line.z_o, line.cv
+    span = (z_o > z - TIP_BELOW_SITE) & (z_o < z + FINGER_LENGTH)
+    if span.sum() < 3:
+        return "span"
+    lo_u, hi_u = float(du_o[span].min()), float(du_o[span].max())
+    width = hi_u - lo_u
+    if width > search.opening - 0.01 or width < 0.004:
+        return "width"
+    # The pads must make the first contact on both sides: the outermost points
+    # between the fingers lie in front of the pads, not at a finger's edge or top.
+    pads = span & (np.abs(dv_o - cv) < PAD_HALF) & (np.abs(z_o - z) < PAD_HALF + 0.002)
+    if (
+        pads.sum() < 2
+        or float(du_o[pads].min()) - lo_u > search.pad_tolerance
+        or hi_u - float(du_o[pads].max()) > search.pad_tolerance
+    ):
+        return "pads"
+    # Antipodal contacts: across each pad, the contact surface must face the pad
+    # (not run along the closing direction, as a chord across a bowl's edge does),
+    # or the squeeze slides off. Compare the surface's position at both pad edges.
+    band = pads & (np.abs(z_o - z) < PAD_HALF)
+    sides_ok = True
+    for sign in (1.0, -1.0):
+        left = band & (dv_o - cv > -PAD_HALF) & (dv_o - cv < -0.002)
+        right = band & (dv_o - cv > 0.002) & (dv_o - cv < PAD_HALF)
+        if left.sum() < 2 or right.sum() < 2:
+            continue
+        edge_l = float((sign * du_o[left]).max())
+        edge_r = float((sign * du_o[right]).max())
+        if abs(edge_l - edge_r) > 0.8 * (PAD_HALF + 0.002):
+            sides_ok = False
+    if not sides_ok:
+        return "slanted"
+    # Squeezing a wide body whose sides flare out above the pads pushes it down
+    # out of the fingers (bowls held from outside): not allowed beyond 1.5 mm.
+    if width > 0.02:
+        above = span & (z_o > z + PAD_HALF)
+        if above.any() and (
+            float(du_o[pads].min()) - float(du_o[above].min()) > 0.0015
+            or float(du_o[above].max()) - float(du_o[pads].max()) > 0.0015
+        ):
+            return "flare"
+    return lo_u, hi_u
+
+
+def _finger_clearance(line: _Line, z: float, gu: float, width: float, opening: float) -> float | str:
+    """How far the nearest other point is from the fingers coming down at ``gu`` (at most
+    3 cm), or the reason they cannot come down (something in the way of a finger or the palm)."""
+    # The fingers come down outside [lo_u, hi_u]: nothing may be there.
+    rel_u = line.du_l - gu
+    rel_v = np.abs(line.dv_l - line.cv)
+    z_l = line.z_l
+    inner = opening / 2
+    in_fingers = (
+        (np.abs(rel_u) > width / 2 + 0.002)
+        & (np.abs(rel_u) < inner + FINGER_THICKNESS)
+        & (rel_v < FINGER_HALF_WIDTH)
+        & (z_l > z - TIP_BELOW_SITE)
+    )
+    if in_fingers.any():
+        return "fingers"
+    in_palm = (np.abs(rel_u) < PALM_HALF[0]) & (rel_v < PALM_HALF[1]) & (z_l > z + FINGER_LENGTH)
+    if in_palm.any():
+        return "palm"
+    # Clearance: distance from the finger volumes to the nearest other point.
+    band = (rel_v < FINGER_HALF_WIDTH + 0.03) & (z_l > z - TIP_BELOW_SITE)
+    outside = band & (np.abs(rel_u) > inner + FINGER_THICKNESS)
+    clearance = 0.03
+    if outside.any():
+        clearance = min(clearance, float((np.abs(rel_u[outside]) - inner - FINGER_THICKNESS).min()))
+    return clearance
+
+
+def has_top_down_grasp(scene: SceneView, name: str) -> bool:
+    """Whether any top-down grasp fits ``name``, with the strict or the loose pad rule."""
+    return bool(
+        plan_top_down(scene, name, yaw_reference=0.0, search=GraspSearch(limit=1))
+        or plan_top_down(scene, name, yaw_reference=0.0, search=GraspSearch(pad_tolerance=0.008, limit=1))
+    )
+
+
+def _sorted_by_v(points: np.ndarray, u: np.ndarray, v: np.ndarray) -> _Sorted:
     """Coordinates along ``u``, across (``v``) and heights of ``points``, sorted by ``v``."""
     du, dv = points[:, :2] @ u, points[:, :2] @ v
     order = np.argsort(dv, kind="stable")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from libero_data.errors import DatasetError, InputError
 from libero_data.record.features import (
     ACTION,
     ACTION_NAMES,
@@ -29,10 +30,13 @@ def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     root = Path(root)
-    info = json.loads((root / "meta" / "info.json").read_text())
+    info_path = root / "meta" / "info.json"
+    if not info_path.is_file():
+        raise DatasetError(f"{root} is not a dataset folder (meta/info.json is missing)")
+    info = json.loads(info_path.read_text())
     total = int(info.get("total_episodes", 0))
     if not 0 <= episode < total:
-        raise ValueError(f"{root} has episodes 0..{total - 1}, not {episode}")
+        raise InputError(f"{root} has episodes 0..{total - 1}, not {episode}", field="episode")
     dataset = LeRobotDataset(_repo_id(root), root=root, episodes=[episode])
     out = Path(out)
     language = None

@@ -16,8 +16,8 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from libero_data.pipeline.provenance import compact_row
 from libero_data.pipeline.publish import stamp
+from libero_data.provenance import compact_row
 from libero_data.record.shard import INFO_NAME, MCAP_NAME, SHARD_REPO
 
 EPISODES_META = "libero_episodes.jsonl"
@@ -40,7 +40,7 @@ def build_snapshot(
     if out.exists():
         shutil.rmtree(out)
     if not shards:
-        raise ValueError("a snapshot needs at least one episode")
+        raise RuntimeError("a snapshot needs at least one episode")
     with contextlib.redirect_stderr(io.StringIO()):  # aggregate_datasets draws progress bars
         aggregate_datasets(
             [SHARD_REPO] * len(shards),
@@ -50,6 +50,10 @@ def build_snapshot(
             concatenate_videos=False,
             concatenate_data=False,
         )
+    # LeRobot aggregates the statistics over a set of feature names, whose order changes from
+    # process to process (string hashing): the same content is written in one order.
+    stats = out / "meta" / "stats.json"
+    stats.write_text(json.dumps(json.loads(stats.read_text()), indent=4, sort_keys=True))
     (out / "mcap").mkdir()
     episodes = []
     for index, shard in enumerate(shards):

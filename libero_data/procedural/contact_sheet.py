@@ -12,7 +12,7 @@ import numpy as np
 def task_frames(task, *, size: int = 160, seed: int = 0) -> tuple[np.ndarray, np.ndarray, bool]:
     """(initial frame, final frame, success) of one expert episode from stored init state 0."""
     from libero_data.experts import Expert
-    from libero_data.experts.report import episode_seeds
+    from libero_data.seeding import episode_seeds
     from libero_data.sim import EnvConfig, LiberoEnv
 
     init = task.init_states()[0] if task.init_states_path is not None else None

@@ -15,8 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from libero_data.bddl.model import And, Atom, Entity, Problem, Region, atoms
+from libero_data.errors import InputError
 from libero_data.procedural.catalogue import Catalogue, SceneSpec, load_catalogue
 from libero_data.procedural.templates import TEMPLATES, Draft, instantiate
+from libero_data.seeding import sampler_rng
 
 #: Default mix (kept tasks across scenes and templates); every template is possible.
 HALF_WIDTH = 0.015  # init squares: LIBERO's sampler draws the object's centre in ±this
@@ -24,7 +26,7 @@ DRAWS_PER_TASK = 5  # distractor draws before a repeated task is rejected as a d
 GAP = 0.02  # free space between two objects' footprints (metres)
 
 
-class SamplingError(ValueError):
+class SamplingError(InputError):
     """A task could not be drawn (no scene hosts the template, or no placement fits)."""
 
 
@@ -165,82 +167,113 @@ def sample_tasks(
     accepted task's signature joins it.
     """
     catalogue = catalogue or load_catalogue()
-    scene_ids = list(scenes) if scenes else sorted(catalogue.scenes)
-    for s in scene_ids:
-        if s not in catalogue.scenes:
-            raise SamplingError(f"unknown scene {s!r}; known: {', '.join(sorted(catalogue.scenes))}")
-    template_ids = list(templates) if templates else list(TEMPLATES)
-    for t in template_ids:
-        if t not in TEMPLATES:
-            raise SamplingError(f"unknown behaviour template {t!r}; known: {', '.join(TEMPLATES)}")
-    # Pairs a scene can host, so every draw is meaningful.
-    pairs = []
-    probe = np.random.default_rng(0)
-    for s in scene_ids:
-        for t in template_ids:
-            if instantiate(t, catalogue.scenes[s], catalogue, probe) is not None:
-                pairs.append((s, t))
-    if not pairs:
-        raise SamplingError("no chosen scene can host any chosen behaviour template")
+    by_template = _hosts(catalogue, scenes, templates)
     known = set(shipped_signatures()) if known is None else known
     instructions = shipped_instructions(catalogue)
-    rng = np.random.default_rng(np.random.SeedSequence([seed, 0x11BE70]))
-    # Templates first (uniformly), then a scene that hosts it: keeps the behaviour mix even.
-    by_template: dict[str, list[str]] = {}
-    for s, t in pairs:
-        by_template.setdefault(t, []).append(s)
+    rng = sampler_rng(seed)
     names = sorted(by_template)
     for _ in range(n):
-        for _redraw in range(20):
-            t = names[int(rng.integers(len(names)))]
-            s = by_template[t][int(rng.integers(len(by_template[t])))]
-            scene = catalogue.scenes[s]
-            draft = instantiate(t, scene, catalogue, rng)
-            assert draft is not None
-            # One instruction per scene layout: another draw where this one is taken (by a
-            # shipped task or an earlier draw), so no two tasks differ only in distractors.
-            if (s, draft.language) not in instructions:
-                break
-        else:
+        s, t, draft = _draw(rng, names, by_template, catalogue, instructions)
+        if draft is None:
             yield None, s, t, "duplicate of a shipped or already sampled task"
             continue
-        seen = catalogue.seen_in.get(scene.kind, {})
-        pool = [
-            c
-            for c, spec in sorted(catalogue.objects.items())
-            if c not in draft.objects and spec.graspable and spec.radius <= 0.07 and c in seen
-        ]
-        why = ""
-        for _attempt in range(DRAWS_PER_TASK):  # other distractors where a draw repeats a task
-            # A task about a fixture alone still gets objects around (else every draw is the same).
-            k = int(rng.integers(0 if draft.objects else 1, max(max_distractors, 1) + 1))
-            distractors = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
-            while True:  # fewer distractors where they do not fit
-                categories = [*draft.objects, *distractors]
-                radii = [catalogue.objects[c].radius for c in categories]
-                order = np.argsort(radii, kind="stable")[::-1]  # big things first
-                centres_sorted = _place(rng, scene, [radii[i] for i in order])
-                if centres_sorted is not None or not distractors:
-                    break
-                distractors = distractors[:-1]
-            if centres_sorted is None:
-                why = "placement impossible: the objects do not fit the scene's free regions"
-                break
-            centres: list[tuple[float, float]] = [(0.0, 0.0)] * len(categories)
-            for slot, i in enumerate(order):
-                centres[int(i)] = centres_sorted[slot]
-            problem = build_problem(draft, scene, catalogue, distractors, centres)
-            sig = signature(problem)
-            if sig not in known:
-                why = ""
-                break
-            why = "duplicate of a shipped or already sampled task"
-        if why:
+        scene = catalogue.scenes[s]
+        problem, sig, why = _furnish(rng, draft, scene, catalogue, max_distractors, known)
+        if why or problem is None:
             yield None, s, t, why
             continue
         known.add(sig)
         instructions.add((s, draft.language))
         yield SampledTask(task_name(scene, draft.language), s, t, problem), s, t, ""
+
+
+def _hosts(
+    catalogue: Catalogue, scenes: Iterable[str] | None, templates: Iterable[str] | None
+) -> dict[str, list[str]]:
+    """Per template, the chosen scenes that can host it (so every draw is meaningful)."""
+    scene_ids = list(scenes) if scenes else sorted(catalogue.scenes)
+    for s in scene_ids:
+        if s not in catalogue.scenes:
+            raise SamplingError(
+                f"unknown scene {s!r}; known: {', '.join(sorted(catalogue.scenes))}", field="scene"
+            )
+    template_ids = list(templates) if templates else list(TEMPLATES)
+    for t in template_ids:
+        if t not in TEMPLATES:
+            raise SamplingError(
+                f"unknown behaviour template {t!r}; known: {', '.join(TEMPLATES)}", field="template"
+            )
+    probe = np.random.default_rng(0)
+    by_template: dict[str, list[str]] = {}
+    for s in scene_ids:
+        for t in template_ids:
+            if instantiate(t, catalogue.scenes[s], catalogue, probe) is not None:
+                by_template.setdefault(t, []).append(s)
+    if not by_template:
+        raise SamplingError("no chosen scene can host any chosen behaviour template")
+    return by_template
+
+
+def _draw(
+    rng: np.random.Generator,
+    names: list[str],
+    by_template: dict[str, list[str]],
+    catalogue: Catalogue,
+    instructions: set[tuple[str, str]],
+) -> tuple[str, str, Draft | None]:
+    """A template (uniformly), then a scene that hosts it: keeps the behaviour mix even. One
+    instruction per scene layout: drawn again where this one is taken (by a shipped task or an
+    earlier draw), so no two tasks differ only in distractors; None after 20 draws."""
+    for _redraw in range(20):
+        t = names[int(rng.integers(len(names)))]
+        s = by_template[t][int(rng.integers(len(by_template[t])))]
+        draft = instantiate(t, catalogue.scenes[s], catalogue, rng)
+        assert draft is not None
+        if (s, draft.language) not in instructions:
+            return s, t, draft
+    return s, t, None
+
+
+def _furnish(
+    rng: np.random.Generator,
+    draft: Draft,
+    scene: SceneSpec,
+    catalogue: Catalogue,
+    max_distractors: int,
+    known: set[tuple],
+) -> tuple[Problem | None, tuple, str]:
+    """The drafted task with distractors and every object placed: (problem, its signature,
+    why it was rejected or "")."""
+    seen = catalogue.seen_in.get(scene.kind, {})
+    pool = [
+        c
+        for c, spec in sorted(catalogue.objects.items())
+        if c not in draft.objects and spec.graspable and spec.radius <= 0.07 and c in seen
+    ]
+    problem: Problem | None = None
+    sig: tuple = ()
+    for _attempt in range(DRAWS_PER_TASK):  # other distractors where a draw repeats a task
+        # A task about a fixture alone still gets objects around (else every draw is the same).
+        k = int(rng.integers(0 if draft.objects else 1, max(max_distractors, 1) + 1))
+        distractors = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
+        while True:  # fewer distractors where they do not fit
+            categories = [*draft.objects, *distractors]
+            radii = [catalogue.objects[c].radius for c in categories]
+            order = np.argsort(radii, kind="stable")[::-1]  # big things first
+            centres_sorted = _place(rng, scene, [radii[i] for i in order])
+            if centres_sorted is not None or not distractors:
+                break
+            distractors = distractors[:-1]
+        if centres_sorted is None:
+            return None, (), "placement impossible: the objects do not fit the scene's free regions"
+        centres: list[tuple[float, float]] = [(0.0, 0.0)] * len(categories)
+        for slot, i in enumerate(order):
+            centres[int(i)] = centres_sorted[slot]
+        problem = build_problem(draft, scene, catalogue, distractors, centres)
+        sig = signature(problem)
+        if sig not in known:
+            return problem, sig, ""
+    return problem, sig, "duplicate of a shipped or already sampled task"
 
 
 def check_problem(problem: Problem, catalogue: Catalogue | None = None) -> list[str]:

@@ -10,28 +10,30 @@ Layout of the output folder (it is also where the dataset goes):
   result and, when rejected, why.
 
 Each candidate's verdict is journalled under ``.libero-data/procedural/`` as soon as it is
-known, so an interrupted run resumes without testing a task twice.
+known, so an interrupted run resumes without testing a task twice. Candidates are checked as
+jobs of the runtime's job runner.
 """
 
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from libero_data.config import Config
 from libero_data.procedural.sampler import SampledTask, sample_tasks
-
-SUITE_FILES = ("suite.json", "tasks", "procedural_report.json", "procedural_report.md")
-WORK = ".libero-data"
+from libero_data.runtime.files import save_npz, write_json, write_text
+from libero_data.runtime.folder import DATASET_WORK, WorkFolder
+from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
+from libero_data.seeding import CANDIDATE_EXPERT, candidate_seed
+from libero_data.tasks import SUITE_MANIFEST
 
 
 @dataclass(frozen=True)
-class ProceduralSettings:
+class ProceduralSettings(Config):
     n: int
     seed: int = 0
     scenes: tuple[str, ...] = ()
@@ -42,12 +44,6 @@ class ProceduralSettings:
     variants_of: str = ""  # a suite: make robustness variants of its tasks instead of new tasks
     kinds: tuple[str, ...] = ()  # variant kinds (``libero_data.procedural.variants.KINDS``)
     tasks: tuple[str, ...] = ()  # with variants_of: which tasks (default all)
-
-    def to_json(self) -> dict[str, Any]:
-        d = asdict(self)
-        for key in ("scenes", "templates", "kinds", "tasks"):
-            d[key] = list(d[key])
-        return d
 
 
 @dataclass
@@ -62,13 +58,6 @@ class Verdict:
     tried: int = 0
     goal: str = ""
     failures: list[str] = field(default_factory=list)
-
-
-def _seed(settings: ProceduralSettings, name: str, i: int) -> int:
-    import hashlib
-
-    h = int.from_bytes(hashlib.sha256(name.encode()).digest()[:4], "little")
-    return int(np.random.SeedSequence([settings.seed, h, i]).generate_state(1)[0])
 
 
 def check_task(
@@ -90,7 +79,7 @@ def check_task(
     with env:
         for i in range(settings.stored_inits):
             try:
-                env.reset(None, seed=_seed(settings, name, i), render=False)
+                env.reset(None, seed=candidate_seed(settings.seed, name, i), render=False)
             except Exception as exc:  # LIBERO's placement sampler gave up
                 verdict.reason = f"placement impossible: {type(exc).__name__}"
                 return verdict, None
@@ -99,7 +88,9 @@ def check_task(
         need = (settings.check_inits + 1) // 2
         for i in range(settings.check_inits):
             episode = expert.run(
-                states[i], reset_seed=_seed(settings, name, i), seed=_seed(settings, name, 1000 + i)
+                states[i],
+                reset_seed=candidate_seed(settings.seed, name, i),
+                seed=candidate_seed(settings.seed, name, CANDIDATE_EXPERT + i),
             )
             verdict.tried += 1
             verdict.successes += bool(episode.success)
@@ -113,13 +104,17 @@ def check_task(
     return verdict, np.stack(states)
 
 
-def _check_worker(args: tuple[str, str, str, dict[str, Any]]) -> tuple[Verdict, np.ndarray | None]:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    path, name, language, settings = args
-    s = dict(settings)
-    for key in ("scenes", "templates", "kinds", "tasks"):
-        s[key] = tuple(s[key])
-    return check_task(Path(path), name, language, ProceduralSettings(**s))
+@dataclass(frozen=True)
+class _CheckJob:
+    index: int  # the candidate's place in the sample
+    bddl: str
+    name: str
+    language: str
+    settings: ProceduralSettings
+
+
+def _check(ctx: WorkerContext, job: _CheckJob) -> tuple[Verdict, np.ndarray | None]:
+    return check_task(Path(job.bddl), job.name, job.language, job.settings)
 
 
 def make_suite(
@@ -128,23 +123,57 @@ def make_suite(
     *,
     workers: int = 1,
     on_verdict: Callable[[Verdict], None] | None = None,
+    executor: Executor | None = None,
 ) -> list[Verdict]:
-    """Sample, check and write the suite into ``out``; resumes an interrupted run."""
-    from libero_data.bddl.writer import _formula, write
-    from libero_data.experts.report import expert_fingerprint
+    """Sample, check and write the suite into ``out``; resumes an interrupted run.
 
-    expert_code = expert_fingerprint()  # of the code this process runs (read before any check)
+    Candidates are checked in ``workers`` processes (or with ``executor``)."""
+    from libero_data.bddl import formula_text, write
+    from libero_data.provenance import expert_code
+
+    code = expert_code()  # of the code this process runs (read before any check)
     out = Path(out).resolve()
-    work = out / WORK / "procedural"
-    work.mkdir(parents=True, exist_ok=True)
-    saved = work / "settings.json"
-    if saved.is_file():
-        if json.loads(saved.read_text()) != settings.to_json():
-            raise ValueError(
-                f"{out} holds a procedural suite made with other settings; use the same command or another --out"
-            )
-    else:
-        saved.write_text(json.dumps(settings.to_json(), indent=2))
+    folder = WorkFolder(out / DATASET_WORK / "procedural", "procedural suite")
+    folder.claim(settings.to_dict(), owner=out)
+    candidates = _candidates(settings)
+    verdicts: dict[int, Verdict] = {}
+    states: dict[int, np.ndarray] = {}
+    jobs = []
+    for i, (task, scene, template, why) in enumerate(candidates):
+        if task is None:
+            verdicts[i] = Verdict(f"candidate_{i}", scene, template, "", False, why)
+        elif folder.path(f"{i:04d}.json").is_file():
+            verdicts[i] = Verdict(**json.loads(folder.path(f"{i:04d}.json").read_text()))
+            if verdicts[i].kept:
+                with np.load(folder.path(f"{i:04d}.npz")) as data:
+                    states[i] = data["states"]
+        else:
+            path = write_text(folder.path("bddl", f"{task.name}.bddl"), write(task.problem))
+            jobs.append(_CheckJob(i, str(path), task.name, task.language, settings))
+    for v in verdicts.values():
+        if on_verdict:
+            on_verdict(v)
+    with JobRunner(executor or Executor.processes(workers), folder.root) as runner:
+        for j, (verdict, found) in runner.run(_check, jobs):
+            i = jobs[j].index
+            task = candidates[i][0]
+            assert task is not None
+            verdict.scene, verdict.template = task.scene, task.template
+            verdict.goal = formula_text(task.problem.goal)
+            if verdict.kept and found is not None:
+                states[i] = found
+                save_npz(folder.path(f"{i:04d}.npz"), states=found)
+            write_json(folder.path(f"{i:04d}.json"), asdict(verdict), indent=None, newline=False)
+            verdicts[i] = verdict
+            if on_verdict:
+                on_verdict(verdict)
+    ordered = [verdicts[i] for i in range(len(candidates))]
+    _write_suite(out, settings, candidates, ordered, states, code)
+    return ordered
+
+
+def _candidates(settings: ProceduralSettings) -> list[tuple[SampledTask | None, str, str, str]]:
+    """The sampled tasks (or variants) in order: (task or None, scene, template, why not)."""
     candidates: list[tuple[SampledTask | None, str, str, str]]
     if settings.variants_of:
         from libero_data.procedural.variants import variant_tasks
@@ -164,62 +193,8 @@ def make_suite(
         )
     names = [c[0].name for c in candidates if c[0] is not None]
     if len(set(names)) != len(names):  # each task is a file named after it
-        raise ValueError("two sampled tasks share a name; this is a bug in the sampler")
-    staged = work / "bddl"
-    staged.mkdir(exist_ok=True)
-    verdicts: dict[int, Verdict] = {}
-    states: dict[int, np.ndarray] = {}
-    jobs = []
-    for i, (task, scene, template, why) in enumerate(candidates):
-        if task is None:
-            verdicts[i] = Verdict(f"candidate_{i}", scene, template, "", False, why)
-            continue
-        done = work / f"{i:04d}.json"
-        if done.is_file():
-            verdicts[i] = Verdict(**json.loads(done.read_text()))
-            if verdicts[i].kept:
-                with np.load(work / f"{i:04d}.npz") as data:
-                    states[i] = data["states"]
-            continue
-        path = staged / f"{task.name}.bddl"
-        path.write_text(write(task.problem))
-        jobs.append((i, (str(path), task.name, task.language, settings.to_json())))
-    for v in verdicts.values():
-        if on_verdict:
-            on_verdict(v)
-
-    def record(i: int, verdict: Verdict, st: np.ndarray | None) -> None:
-        task = candidates[i][0]
-        assert task is not None
-        verdict.scene, verdict.template = task.scene, task.template
-        verdict.goal = _formula(task.problem.goal)
-        if verdict.kept and st is not None:
-            tmp = work / f"{i:04d}.tmp.npz"
-            np.savez(tmp, states=st)
-            tmp.replace(work / f"{i:04d}.npz")
-            states[i] = st
-        tmp_json = work / f"{i:04d}.json.tmp"
-        tmp_json.write_text(json.dumps(asdict(verdict)))
-        tmp_json.replace(work / f"{i:04d}.json")
-        verdicts[i] = verdict
-        if on_verdict:
-            on_verdict(verdict)
-
-    if workers <= 1:
-        for i, job in jobs:
-            v, st = _check_worker(job)
-            record(i, v, st)
-    else:
-        import multiprocessing as mp
-
-        with mp.get_context("spawn").Pool(workers, maxtasksperchild=8) as pool:
-            index = {job[1]: i for i, job in jobs}
-            for v, st in pool.imap_unordered(_check_worker, [job for _, job in jobs]):
-                record(index[v.name], v, st)
-
-    ordered = [verdicts[i] for i in range(len(candidates))]
-    _write_suite(out, settings, candidates, ordered, states, expert_code)
-    return ordered
+        raise RuntimeError("two sampled tasks share a name; this is a bug in the sampler")
+    return candidates
 
 
 def _write_suite(
@@ -230,16 +205,15 @@ def _write_suite(
     states: dict[int, np.ndarray],
     expert_code: str = "",
 ) -> None:
-    from libero_data.bddl.writer import write
+    from libero_data.bddl import write
+    from libero_data.runtime.versions import versions
 
-    tasks_dir = out / "tasks"
-    tasks_dir.mkdir(exist_ok=True)
     entries = []
     for i, (task, v) in enumerate(zip([c[0] for c in candidates], verdicts, strict=True)):
         if task is None or not v.kept:
             continue
-        (tasks_dir / f"{task.name}.bddl").write_text(write(task.problem))
-        np.savez(tasks_dir / f"{task.name}.init.npz", states=states[i])
+        write_text(out / "tasks" / f"{task.name}.bddl", write(task.problem))
+        save_npz(out / "tasks" / f"{task.name}.init.npz", states=states[i])
         entries.append(
             {
                 "name": task.name,
@@ -251,24 +225,20 @@ def _write_suite(
                 "expert": [v.successes, v.tried],
             }
         )
-    from libero_data.pipeline.generate import versions
-
     manifest = {
         "name": out.name,
         "generator": {
-            "settings": settings.to_json(),
+            "settings": settings.to_dict(),
             "versions": versions(),
             "candidates": len(verdicts),
             "expert_code": expert_code,
         },
         "tasks": entries,
     }
-    tmp = out / "suite.json.tmp"
-    tmp.write_text(json.dumps(manifest, indent=1))
-    tmp.replace(out / "suite.json")
-    report = {"settings": settings.to_json(), "candidates": [asdict(v) for v in verdicts]}
-    (out / "procedural_report.json").write_text(json.dumps(report, indent=1))
-    (out / "procedural_report.md").write_text(report_markdown(verdicts, settings, expert_code))
+    write_text(out / SUITE_MANIFEST, json.dumps(manifest, indent=1))
+    report = {"settings": settings.to_dict(), "candidates": [asdict(v) for v in verdicts]}
+    write_text(out / "procedural_report.json", json.dumps(report, indent=1))
+    write_text(out / "procedural_report.md", report_markdown(verdicts, settings, expert_code))
 
 
 def report_markdown(verdicts: list[Verdict], settings: ProceduralSettings, expert_code: str = "") -> str:

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ from libero_data.bddl.model import Atom, Entity, Problem, Region, atoms
 from libero_data.procedural.catalogue import Catalogue, SceneSpec, load_catalogue
 from libero_data.procedural.sampler import GAP, HALF_WIDTH, SampledTask, SamplingError
 from libero_data.procedural.templates import HARD_TO_GRASP, display
+from libero_data.seeding import variant_rng
 
 KINDS = ("layout", "distractors", "swap", "language")
 FIXTURE_CLEARANCE = 0.2  # metres from a fixture's centre to any new object's footprint
@@ -162,56 +164,84 @@ def make_variant(
     scene = scene_of(task_id, catalogue)
     if scene is None:
         raise SamplingError(f"{task_id} has no scene layout in the catalogue")
-    table = scene.table
-    category = {o.name: o.category for o in source.objects}
-    radius = {n: catalogue.objects[c].radius if c in catalogue.objects else 0.05 for n, c in category.items()}
+    return _SCENE_VARIANTS[kind](_Source(source, task_id, scene, catalogue), rng)
+
+
+@dataclass(frozen=True)
+class _Source:
+    """The task a scene variant is made from: its problem, id, scene layout and catalogue."""
+
+    problem: Problem
+    task_id: str
+    scene: SceneSpec
+    catalogue: Catalogue
+
+    @property
+    def category(self) -> dict[str, str]:
+        return {o.name: o.category for o in self.problem.objects}
+
+    @property
+    def radius(self) -> dict[str, float]:
+        objects = self.catalogue.objects
+        return {n: objects[c].radius if c in objects else 0.05 for n, c in self.category.items()}
+
+
+def _layout_variant(src: _Source, rng: np.random.Generator) -> Problem:
+    """The objects that start on the table moved to new places, clear of their old ones."""
+    source, table, radius = src.problem, src.scene.table, src.radius
     starts = _table_starts(source, table)
-    if kind == "layout":
-        if not starts:
-            raise SamplingError(f"{task_id}: no object starts on the table")
-        fixed = [
-            (*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items() if n not in starts
-        ]
-        taken = list(fixed)
-        new: dict[str, tuple[float, float]] = {}
-        for name in sorted(starts, key=lambda n: -radius[n]):
-            c = _free_centre(rng, scene, radius[name], taken, avoid=_centre(starts[name]))
-            if c is None:
-                raise SamplingError(f"{task_id}: no new place for {name}")
-            new[name] = c
-            taken.append((*c, radius[name]))
-        return _replace_starts(source, table, new)
-    if kind == "distractors":
-        present = set(category.values())
-        seen = catalogue.seen_in.get(scene.kind, {})
-        pool = [
-            c
-            for c, spec in sorted(catalogue.objects.items())
-            if c not in present and spec.graspable and spec.radius <= 0.07 and c in seen
-        ]
-        k = int(rng.integers(1, 3))
-        chosen = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
-        taken = [(*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items()]
-        regions, objects, init = list(source.regions), list(source.objects), list(source.init)
-        for extra in chosen:
-            spot = _free_centre(rng, scene, catalogue.objects[extra].radius, taken)
-            if spot is None:
-                continue
-            name = f"{extra}_1"
-            region = f"{extra}_init_region"
-            regions.append(_square(region, table, *spot))
-            objects.append(Entity(name, extra))
-            init.append(Atom("On", (name, f"{table}_{region}")))
-            taken.append((*spot, catalogue.objects[extra].radius))
-        if len(objects) == len(source.objects):
-            raise SamplingError(f"{task_id}: no room for a distractor")
-        return dataclasses.replace(source, regions=tuple(regions), objects=tuple(objects), init=tuple(init))
-    # swap
+    if not starts:
+        raise SamplingError(f"{src.task_id}: no object starts on the table")
+    fixed = [(*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items() if n not in starts]
+    taken = list(fixed)
+    new: dict[str, tuple[float, float]] = {}
+    for name in sorted(starts, key=lambda n: -radius[n]):
+        c = _free_centre(rng, src.scene, radius[name], taken, avoid=_centre(starts[name]))
+        if c is None:
+            raise SamplingError(f"{src.task_id}: no new place for {name}")
+        new[name] = c
+        taken.append((*c, radius[name]))
+    return _replace_starts(source, table, new)
+
+
+def _distractor_variant(src: _Source, rng: np.random.Generator) -> Problem:
+    """One or two objects added where they fit, of kinds LIBERO shows in such scenes."""
+    source, table, catalogue = src.problem, src.scene.table, src.catalogue
+    present = set(src.category.values())
+    seen = catalogue.seen_in.get(src.scene.kind, {})
+    pool = [
+        c
+        for c, spec in sorted(catalogue.objects.items())
+        if c not in present and spec.graspable and spec.radius <= 0.07 and c in seen
+    ]
+    k = int(rng.integers(1, 3))
+    chosen = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
+    radius = src.radius
+    taken = [(*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items()]
+    regions, objects, init = list(source.regions), list(source.objects), list(source.init)
+    for extra in chosen:
+        spot = _free_centre(rng, src.scene, catalogue.objects[extra].radius, taken)
+        if spot is None:
+            continue
+        name = f"{extra}_1"
+        region = f"{extra}_init_region"
+        regions.append(_square(region, table, *spot))
+        objects.append(Entity(name, extra))
+        init.append(Atom("On", (name, f"{table}_{region}")))
+        taken.append((*spot, catalogue.objects[extra].radius))
+    if len(objects) == len(source.objects):
+        raise SamplingError(f"{src.task_id}: no room for a distractor")
+    return dataclasses.replace(source, regions=tuple(regions), objects=tuple(objects), init=tuple(init))
+
+
+def _swap_variant(src: _Source, rng: np.random.Generator) -> Problem:
+    """The object the goal moves replaced by another of its kind; the instruction follows."""
+    source, category, language = src.problem, src.category, src.problem.language
     moved = next(
         (a.args[0] for a in atoms(source.goal) if a.predicate in ("On", "In") and a.args[0] in category), None
     )
     if moved is None:
-        raise SamplingError(f"{task_id}: the goal moves no object")
+        raise SamplingError(f"{src.task_id}: the goal moves no object")
     old = category[moved]
     group = next((g for g in KIND_GROUPS if old in g), None)
     present = set(category.values())
@@ -220,7 +250,7 @@ def make_variant(
     if not re.search(rf"\b{re.escape(words)}\b", language):
         words = "the " + words.split()[-1]  # "put the bowl ..." for the black bowl
     if not options or not re.search(rf"\b{re.escape(words)}\b", language):
-        raise SamplingError(f"{task_id}: no object of the same kind can stand in for {old}")
+        raise SamplingError(f"{src.task_id}: no object of the same kind can stand in for {old}")
     new_cat = options[int(rng.integers(len(options)))]
     new_name = f"{new_cat}_1"
 
@@ -257,6 +287,14 @@ def make_variant(
     )
 
 
+#: The variants that change the scene, by kind (``language`` changes the instruction only).
+_SCENE_VARIANTS: dict[str, Callable[[_Source, np.random.Generator], Problem]] = {
+    "layout": _layout_variant,
+    "distractors": _distractor_variant,
+    "swap": _swap_variant,
+}
+
+
 def _table_starts_all(problem: Problem, table: str) -> dict[str, Region]:
     objects = {o.name for o in problem.objects}
     out = {}
@@ -282,7 +320,7 @@ def variant_tasks(
             raise SamplingError(f"unknown variant kind {k!r}; known: {', '.join(KINDS)}")
     for task in chosen:
         for j, kind in enumerate(kinds):
-            rng = np.random.default_rng(np.random.SeedSequence([seed, task.index, j, 0x7A51]))
+            rng = variant_rng(seed, task.index, j)
             try:
                 problem = make_variant(task.problem, task.id, kind, rng, language=task.language)
             except SamplingError as exc:

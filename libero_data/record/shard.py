@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import shutil
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -19,6 +18,7 @@ import numpy as np
 
 from libero_data.record.features import dataset_features, frame_from_observation
 from libero_data.record.mcap_log import write_episode_mcap
+from libero_data.runtime.files import commit_folder, scratch_folder
 
 if TYPE_CHECKING:
     from libero_data.sim import LiberoEnv
@@ -218,61 +218,3 @@ def quiet_datasets() -> Iterator[None]:
     finally:
         if not was_disabled:
             enable_progress_bars()
-
-
-def pack_tree(root: Path) -> dict[str, bytes]:
-    """Every file under ``root`` as {relative path: bytes} (to send a finished folder elsewhere)."""
-    return {str(f.relative_to(root)): f.read_bytes() for f in sorted(root.rglob("*")) if f.is_file()}
-
-
-def unpack_tree(files: dict[str, bytes], dest: Path) -> Path:
-    """Write :func:`pack_tree`'s files as folder ``dest``, which appears (or is replaced) atomically."""
-    dest = Path(dest)
-    with atomic_folder(dest) as tmp:
-        tmp.mkdir(parents=True)
-        for rel, data in files.items():
-            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
-            (tmp / rel).write_bytes(data)
-    return dest
-
-
-@contextlib.contextmanager
-def atomic_folder(dest: Path) -> Iterator[Path]:
-    """A scratch path next to ``dest`` (not created: the block makes it) that replaces ``dest``,
-    flushed to disk, when the block ends.
-
-    On an exception the scratch folder is removed and ``dest`` is left as it was.
-    """
-    tmp = scratch_folder(dest)
-    try:
-        yield tmp
-        commit_folder(tmp, dest)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def scratch_folder(dest: Path) -> Path:
-    """The scratch path (not created) where ``dest`` is built by this process."""
-    tmp = dest.with_name(f"{dest.name}.tmp-{os.getpid()}")
-    shutil.rmtree(tmp, ignore_errors=True)  # a leftover of an earlier process with this pid
-    return tmp
-
-
-def commit_folder(tmp: Path, dest: Path) -> None:
-    """Flush the finished scratch folder ``tmp`` to disk and rename it to ``dest`` (replacing it)."""
-    fsync_tree(tmp)
-    if dest.exists():
-        shutil.rmtree(dest)
-    tmp.rename(dest)
-
-
-def fsync_tree(root: Path) -> None:
-    """Flush a freshly written folder to disk before it is renamed into place."""
-    for path in sorted(root.rglob("*")):
-        if path.is_file():
-            fd = os.open(path, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)

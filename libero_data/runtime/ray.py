@@ -1,5 +1,4 @@
-"""Running work on Ray: the executor choice and starting (or joining) Ray, shared by
-``libero-data generate`` and ``libero-bench run``. Ray is imported only when used."""
+"""Starting (or joining) Ray for the job runner. Ray is imported only here, and only when used."""
 
 from __future__ import annotations
 
@@ -7,16 +6,7 @@ import logging
 import os
 from typing import Any
 
-EXECUTORS = ("local", "ray")
-
-
-def executor_problem(executor: str, ray_address: str | None) -> tuple[str, str] | None:
-    """(option, sentence) when ``--executor``/``--ray-address`` do not go together, else None."""
-    if executor not in EXECUTORS:
-        return "--executor", f"{executor!r}; choose {' or '.join(EXECUTORS)}"
-    if ray_address and executor != "ray":
-        return "--ray-address", "--ray-address needs --executor ray"
-    return None
+from libero_data.errors import ExecutorError
 
 
 def start_ray(workers: int, address: str | None) -> tuple[Any, bool]:
@@ -31,10 +21,12 @@ def start_ray(workers: int, address: str | None) -> tuple[Any, bool]:
     try:
         import ray
     except ImportError as exc:
-        raise ValueError("--executor ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)") from exc
+        raise ExecutorError(
+            "running on Ray needs Ray: pip install 'libero-data[ray]' (or ray>=2.40)", field="executor"
+        ) from exc
     if ray.is_initialized():
         return ray, False
-    # MALLOC_ARENA_MAX: see libero_data.pipeline.memory (Ray starts the worker processes).
+    # MALLOC_ARENA_MAX: see libero_data.runtime.memory (Ray starts the worker processes).
     env_vars = {"OMP_NUM_THREADS": "1", "SVT_LOG": "1", "MALLOC_ARENA_MAX": "2"}
     for name in ("MUJOCO_GL", *NUMERIC_VARIABLES):
         if os.environ.get(name):

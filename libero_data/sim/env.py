@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
+from libero_data.errors import BDDLError, InputError, MissingFileError, SceneError
 from libero_data.sim.gl import select_backend
 from libero_data.sim.imports import import_libero
 from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
@@ -47,11 +48,11 @@ class EnvConfig:
 
     def __post_init__(self) -> None:
         if not 16 <= self.image_size <= 2048:
-            raise ValueError(f"image_size must be in 16..2048, got {self.image_size}")
+            raise InputError(f"the image size must be in 16..2048, got {self.image_size}", field="image_size")
         if self.control_freq <= 0:
-            raise ValueError(f"control_freq must be positive, got {self.control_freq}")
+            raise InputError(f"control_freq must be positive, got {self.control_freq}", field="control_freq")
         if len(set(self.cameras)) != len(self.cameras):
-            raise ValueError(f"cameras must not repeat: {self.cameras}")
+            raise InputError(f"cameras must not repeat: {self.cameras}", field="cameras")
 
 
 class LiberoEnv:
@@ -84,8 +85,9 @@ class LiberoEnv:
         for name in unknown:
             if name not in model_cameras:
                 self.close()
-                raise ValueError(
-                    f"unknown camera {name!r}; choose from {sorted(CAMERAS)} or {sorted(model_cameras)}"
+                raise InputError(
+                    f"unknown camera {name!r}; choose from {sorted(CAMERAS)} or {sorted(model_cameras)}",
+                    field="cameras",
                 )
         self._closed = False
 
@@ -96,8 +98,9 @@ class LiberoEnv:
         key = self.problem.problem.lower()
         if key not in TASK_MAPPING:
             known = ", ".join(sorted(TASK_MAPPING))
-            raise ValueError(
-                f"{self.bddl_path}: unknown LIBERO problem {self.problem.problem!r} (known: {known})"
+            raise BDDLError(
+                f"unknown LIBERO problem {self.problem.problem!r} (known: {known})",
+                source=str(self.bddl_path),
             )
         cameras = bool(self.config.cameras)
         return TASK_MAPPING[key](
@@ -172,7 +175,7 @@ class LiberoEnv:
                 except RandomizationError:
                     continue
             else:
-                raise RuntimeError(f"{self.bddl_path}: LIBERO could not place the objects in 100 attempts")
+                raise SceneError(f"{self.bddl_path}: LIBERO could not place the objects in 100 attempts")
         finally:
             np.random.set_state(saved)
         self._trim_step()  # robosuite builds new controllers on every reset
@@ -389,7 +392,7 @@ def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:
     path = Path(task)
     if path.suffix == ".bddl":
         if not path.is_file():
-            raise FileNotFoundError(f"BDDL file {path} does not exist")
+            raise MissingFileError(f"BDDL file {path} does not exist")
         return path, None
     resolved = get_task(str(task))
     return resolved.bddl_path, resolved

@@ -6,15 +6,13 @@ import ctypes.util
 import os
 import sys
 
+from libero_data.errors import RenderBackendError
+
 BACKENDS = ("egl", "osmesa")
 SYSTEM_PACKAGES = {
     "egl": ["libegl1", "libegl-mesa0", "libgl1-mesa-dri"],
     "osmesa": ["libosmesa6"],
 }
-
-
-class RenderBackendError(RuntimeError):
-    """No usable headless OpenGL backend."""
 
 
 def available_backends() -> list[str]:

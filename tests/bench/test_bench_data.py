@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 import torch
 
-from libero_bench.data import DemoDataset, TaskLoader, WindowDataset, batch_to_device, make_loader
+from libero_bench.data import DemoDataset
+from libero_bench.loaders import TaskLoader, WindowDataset, batch_to_device, make_loader
+from libero_data.errors import DatasetError, MissingFileError
 
 pytestmark = pytest.mark.sim  # needs the generated tiny dataset
 
@@ -130,7 +132,7 @@ def test_resized_images(tiny_dataset: Path) -> None:
 
 
 def test_not_a_dataset(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="does not exist"):
+    with pytest.raises(MissingFileError, match="does not exist"):
         DemoDataset(tmp_path / "missing")
-    with pytest.raises(ValueError, match="not a LeRobot dataset"):
+    with pytest.raises(DatasetError, match="not a LeRobot dataset"):
         DemoDataset(tmp_path)

@@ -187,7 +187,7 @@ def test_replay(bench_run: Path, tmp_path: Path) -> None:
     assert out.read_bytes() == (bench_run / "rrd" / "k001-z-t000-r000.rrd").read_bytes()
     bad = bench("replay", str(bench_run), "--task", "0", "--rollout", "9")
     assert bad.returncode == 2 and bad.stderr.strip() == (
-        "error: task open_the_middle_drawer_of_the_cabinet has rollouts 0..5, not 9"
+        "error: task open_the_middle_drawer_of_the_cabinet has rollouts 0..5, not 9 (--rollout)"
     )
 
 
@@ -263,7 +263,7 @@ def test_resume_after_sigkill_gives_the_same_results(
     assert other.returncode == 2
     assert other.stderr.strip() == (
         f"error: {out} holds a run with a different 'preset'; resume it with the same settings "
-        "or choose a new --out folder"
+        "or choose a new run folder"
     )
 
 
@@ -300,7 +300,7 @@ def test_ray_executor_gives_the_same_results(bench_run: Path, tiny_dataset: Path
         (["--data", "{data}", "--order", "3"], "upstream task orders are for 10 tasks, but the run has 2"),
         (["--data", "{data}", "--set", "epoch=3"], "the preset has no field 'epoch'"),
         (["--data", "{data}", "--set", "epochs=0"], "TrainPreset.epochs must be a positive integer"),
-        (["--data", "{data}", "--device", "tpu"], "--device must be cpu or cuda"),
+        (["--data", "{data}", "--device", "tpu"], "the device must be cpu or cuda, got 'tpu' (--device)"),
     ],
 )
 def test_bad_run_input_is_one_sentence(

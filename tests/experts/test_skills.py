@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from libero_data.experts import Expert
-from libero_data.experts.report import episode_seeds
 from libero_data.experts.skills import SKILLS
+from libero_data.seeding import episode_seeds
 from libero_data.sim import EnvConfig, LiberoEnv
 from libero_data.stats import least_successes, starts_needed, wilson_interval
 from libero_data.tasks import get_task

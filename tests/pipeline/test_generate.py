@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -67,10 +68,10 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
     meta = json.loads((tiny_dataset / "meta" / "libero.json").read_text())
     assert meta["complete"] is True and meta["request"]["seed"] == 3
     assert set(meta["versions"]) >= {"mujoco", "robosuite", "lerobot", "libero-data"}
-    from libero_data.experts.report import expert_fingerprint
+    from libero_data.provenance import expert_code
 
-    assert meta["expert_code"] == [expert_fingerprint()]
-    assert f"| expert code | {expert_fingerprint()} |" in text
+    assert meta["expert_code"] == [expert_code()]
+    assert f"| expert code | {expert_code()} |" in text
 
 
 def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
@@ -81,9 +82,9 @@ def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
     assert [r["episode_index"] for r in rows] == [0, 1]
     assert [r["task_name"] for r in rows] == ["open_the_middle_drawer_of_the_cabinet", "turn_on_the_stove"]
     assert all(r["success"] and r["init_index"] == 0 for r in rows)
-    from libero_data.experts.report import expert_fingerprint
+    from libero_data.provenance import expert_code
 
-    assert {r["expert_code"] for r in rows} == {expert_fingerprint()}
+    assert {r["expert_code"] for r in rows} == {expert_code()}
     assert sorted(p.name for p in (tiny_dataset / "meta" / "bddl").iterdir()) == [
         "open_the_middle_drawer_of_the_cabinet.bddl",
         "turn_on_the_stove.bddl",
@@ -169,16 +170,17 @@ def test_load_dataset_reads_a_dataset_regenerated_at_the_same_path(
 def test_a_worker_keeps_its_environment_between_jobs_of_the_same_task() -> None:
     # Jobs are chunks of one task's episodes: building a LIBERO environment for each chunk
     # cost seconds and, measured, ~290 MiB the first time a process built a second one.
-    from libero_data.pipeline.generate import EnvCache
+    from libero_data.pipeline.episodes import expert_env
+    from libero_data.runtime.jobs import WorkerCache
     from libero_data.tasks import get_task
 
-    cache = EnvCache()
+    cache = WorkerCache()
     first, other = get_task("libero_goal/0"), get_task("libero_goal/7")
-    env, expert = cache.get(first, 64)
-    assert cache.get(first, 64) == (env, expert)  # the next job of the same task: kept
-    env2, _ = cache.get(other, 64)  # another task: the old one is closed, a new one built
+    env, expert = expert_env(cache, first, 64)
+    assert expert_env(cache, first, 64) == (env, expert)  # the next job of the same task: kept
+    env2, _ = expert_env(cache, other, 64)  # another task: the old one is closed, a new one built
     assert env2 is not env and "_env" not in vars(env)
-    assert cache.get(first, 96)[0] is not env2  # another image size: rebuilt too
+    assert expert_env(cache, first, 96)[0] is not env2  # another image size: rebuilt too
     cache.close()
     cache.close()  # closing twice is harmless
 
@@ -188,7 +190,9 @@ def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Pat
     episodes of one task (the stored search of task 0, used twice) go through that path."""
     import shutil
 
-    from libero_data.pipeline.generate import run_job
+    from libero_data.pipeline.episodes import EpisodeJob, make_episodes
+    from libero_data.pipeline.request import GenerateRequest
+    from libero_data.runtime.jobs import WorkerCache, WorkerContext
 
     source = tiny_dataset / ".libero-data"
     work = tmp_path / "work"
@@ -196,18 +200,26 @@ def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Pat
     record = next((source / "search").glob("000-00000*"))
     for k in (0, 1):
         shutil.copy(record, work / "search" / record.name.replace("000-00000", f"000-{k:05d}"))
-    request = json.loads((source / "request.json").read_text())
+    request = GenerateRequest.from_dict(json.loads((source / "request.json").read_text()))
     width = int(json.loads((source / "sim_state_width.json").read_text()))
     on_disk: list[tuple[str, bool]] = []
 
-    def report(key: str, k: int, ok: bool, attempts: int) -> None:
-        shard = work / "shards" / key
+    def report(done: Any) -> None:
+        shard = work / "shards" / done.key
         on_disk.append(
-            (key, ok and (shard / "episode.json").is_file() and (shard / "episode.mcap").is_file())
+            (
+                done.key,
+                done.success and (shard / "episode.json").is_file() and (shard / "episode.mcap").is_file(),
+            )
         )
 
-    results = run_job(str(work), request, request["tasks"][0], 0, [0, 1], width, report=report)
-    assert [r[:2] for r in results] == [(0, True), (1, True)]
+    cache = WorkerCache()
+    ctx = WorkerContext(work, cache, None, report)
+    try:
+        finished = make_episodes(ctx, EpisodeJob(request, 0, request.tasks[0], (0, 1), width))
+    finally:
+        cache.close()
+    assert [(d.k, d.success) for d in finished] == [(0, True), (1, True)]
     assert on_disk == [("000-00000", True), ("000-00001", True)]
     assert not [p for p in (work / "shards").iterdir() if ".tmp" in p.name]
     first, second = (work / "shards" / key for key, _ in on_disk)

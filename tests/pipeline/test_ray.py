@@ -26,10 +26,15 @@ def test_ray_executor_writes_the_same_dataset_as_local_workers(tiny_dataset: Pat
     assert videos == sorted(p.relative_to(tiny_dataset) for p in (tiny_dataset / "videos").rglob("*.mp4"))
     for rel in videos:
         assert (out / rel).read_bytes() == (tiny_dataset / rel).read_bytes()
+    # Every byte of the data and of the statistics (written in one order by every process).
+    for rel in sorted(p.relative_to(out) for p in (out / "data").rglob("*.parquet")):
+        assert (out / rel).read_bytes() == (tiny_dataset / rel).read_bytes(), rel
+    stats = Path("meta") / "stats.json"
+    assert (out / stats).read_bytes() == (tiny_dataset / stats).read_bytes()
 
 
 def test_bad_executor_flags_are_one_sentence(tmp_path: Path) -> None:
     bad = run_cli("generate", *TINY, "--out", str(tmp_path / "x"), "--executor", "dask", timeout=120)
     assert bad.returncode == 2 and "choose local or ray" in bad.stderr
     lonely = run_cli("generate", *TINY, "--out", str(tmp_path / "y"), "--ray-address", "auto", timeout=120)
-    assert lonely.returncode == 2 and "--ray-address needs --executor ray" in lonely.stderr
+    assert lonely.returncode == 2 and "a Ray address needs the Ray executor (--ray-address)" in lonely.stderr

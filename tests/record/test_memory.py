@@ -13,7 +13,7 @@ import gc, shutil, sys, tempfile
 from pathlib import Path
 sys.path.insert(0, {tests!r})
 from test_shard import _frames
-from libero_data.pipeline.memory import limit_malloc_arenas, release_free_memory
+from libero_data.runtime.memory import limit_malloc_arenas, release_free_memory
 from libero_data.record import shard
 if {limit}:
     assert limit_malloc_arenas()

@@ -37,7 +37,7 @@ class ResNetRNNConfig(PolicyConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._check_positive("image_embed_dim", "text_embed_dim", "rnn_hidden_dim", "rnn_num_layers")
-        self._check_dropout("rnn_dropout")
+        self._check_probability("rnn_dropout")
         if len(self.resnet_channels) != 2 or any(
             not isinstance(c, int) or isinstance(c, bool) or c <= 0 for c in self.resnet_channels
         ):

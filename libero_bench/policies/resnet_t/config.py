@@ -40,7 +40,7 @@ class ResNetTConfig(PolicyConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._check_positive("embed_dim", "num_layers", "num_heads", "head_dim", "mlp_dim")
-        self._check_dropout("dropout")
+        self._check_probability("dropout")
         if len(self.resnet_channels) != 2 or any(
             not isinstance(c, int) or isinstance(c, bool) or c <= 0 for c in self.resnet_channels
         ):

@@ -55,7 +55,7 @@ class ViTTConfig(PolicyConfig):
         self._check_positive("patch_size", "patch_stem_channels", "embed_dim", "temporal_dim")
         self._check_positive("spatial_num_layers", "spatial_num_heads", "spatial_head_dim", "spatial_mlp_dim")
         self._check_positive("num_layers", "num_heads", "head_dim", "mlp_dim")
-        self._check_dropout("spatial_dropout", "dropout")
+        self._check_probability("spatial_dropout", "dropout")
         if self.image_size % (2 * self.patch_size) != 0:
             self._fail("image_size", f"must be a multiple of 2 * patch_size = {2 * self.patch_size}")
         if not self.position_base > 1.0:

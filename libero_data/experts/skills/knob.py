@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from libero_data.experts.geometry import rot_z
-from libero_data.experts.grasp import plan_top_down
+from libero_data.experts.grasp import FixturePart, GraspSearch, plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.articulation import holds
 from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift
@@ -24,11 +24,8 @@ def _twist(ctx: Context, fixture: str, on: bool) -> Actions:
         scene,
         fixture,
         yaw_reference=float(np.arctan2(scene.eef_mat()[1, 0], scene.eef_mat()[0, 0])),
-        points=points,
-        exclude=(),
-        exclude_bodies=tuple(scene.subtree(knob)),
-        prefer=joint.anchor,
-        depth=0.02,
+        search=GraspSearch(depths=(0.02,)),
+        part=FixturePart(points=points, bodies=tuple(scene.subtree(knob)), prefer=joint.anchor),
     )
     if not grasps:
         raise SkillFailed(f"no grasp fits the knob of {fixture}")

@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 
 from libero_data.experts.geometry import approach_frame, yaw_of_closing
-from libero_data.experts.grasp import MAX_OPENING, has_top_down_grasp, plan_top_down
+from libero_data.experts.grasp import MAX_OPENING, GraspSearch, has_top_down_grasp, plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import (
     SKILLS,
@@ -35,9 +35,9 @@ class Pick(Skill):
         scene = ctx.scene
         insertion = False
         if rest and scene.has_site(rest[0]):
-            from libero_data.experts.skills.place_in import _enclosed
+            from libero_data.experts.skills.insert import is_enclosed
 
-            insertion = _enclosed(ctx, scene.site(rest[0]))
+            insertion = is_enclosed(ctx, scene.site(rest[0]))
         # Up to three tries; after a miss the grasps are planned again (the object may have
         # moved) and spots within 2 cm of a missed one are skipped.
         missed: list[np.ndarray] = []
@@ -95,9 +95,13 @@ def _plan(scene, obj: str) -> list:
     yaw_reference = yaw_of_closing(scene.eef_mat())
     grasps = plan_top_down(scene, obj, yaw_reference=yaw_reference)
     if not grasps:  # thin flared rims (some bowls) need a looser contact rule
-        grasps = plan_top_down(scene, obj, yaw_reference=yaw_reference, pad_tolerance=0.008)
+        grasps = plan_top_down(
+            scene, obj, yaw_reference=yaw_reference, search=GraspSearch(pad_tolerance=0.008)
+        )
     if not grasps or grasps[0].score < POOR_GRASP:
-        preshaped = plan_top_down(scene, obj, yaw_reference=yaw_reference, opening=PRESHAPED_OPENING)
+        preshaped = plan_top_down(
+            scene, obj, yaw_reference=yaw_reference, search=GraspSearch(opening=PRESHAPED_OPENING)
+        )
         grasps = sorted(grasps + preshaped, key=lambda g: -g.score)
     return grasps
 
@@ -177,7 +181,7 @@ def _leaning_back(ctx: Context, grasp):
 
 def _nudge_into_the_open(ctx: Context, obj: str, distance: float = 0.05) -> Actions:
     """Push the object ``distance`` away from what crowds it (closed finger tips, low)."""
-    from libero_data.experts.skills.push import _stroke
+    from libero_data.experts.skills.push import push_stroke
 
     scene = ctx.scene
     lo, hi = scene.aabb(obj)
@@ -191,7 +195,7 @@ def _nudge_into_the_open(ctx: Context, obj: str, distance: float = 0.05) -> Acti
     away = scene.pos(obj)[:2] - crowd[:, :2].mean(0)
     if np.linalg.norm(away) < 1e-6:
         return False
-    stroke = _stroke(ctx, obj, away / np.linalg.norm(away), set())
+    stroke = push_stroke(ctx, obj, away / np.linalg.norm(away), set())
     if stroke is None:
         return False
     start, direction, mat, _ = stroke

@@ -41,7 +41,7 @@ class Push(Skill):
             body = scene.pos(obj)[:2]
             delta = goal - body
             dist = float(np.linalg.norm(delta))
-            stroke = _stroke(ctx, obj, delta / max(dist, 1e-9), useless)
+            stroke = push_stroke(ctx, obj, delta / max(dist, 1e-9), useless)
             if stroke is None:
                 raise SkillFailed(f"no room to push {obj}")
             start, direction, mat, key = stroke
@@ -68,7 +68,7 @@ def _drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions:
     the rim between the pads the push is along the pads' normals. Only rim holds whose
     fingers close along the way to go are used. False (nothing done) when none fits.
     """
-    from libero_data.experts.grasp import plan_top_down
+    from libero_data.experts.grasp import GraspSearch, plan_top_down
 
     scene = ctx.scene
     body = scene.pos(obj)[:2]
@@ -76,7 +76,9 @@ def _drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions:
     if np.linalg.norm(way) < 1e-6:
         return True
     way = way / np.linalg.norm(way)
-    grasps = plan_top_down(scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), depth=(0.008, 0.012))
+    grasps = plan_top_down(
+        scene, obj, yaw_reference=yaw_of_closing(scene.eef_mat()), search=GraspSearch(depths=(0.008, 0.012))
+    )
 
     def along_way(g) -> bool:
         offset = g.pos[:2] - body
@@ -163,7 +165,7 @@ def _press_drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions
     return bool(scene.env.holds(atom))
 
 
-def _stroke(
+def push_stroke(
     ctx: Context, obj: str, ideal: np.ndarray, useless: set[tuple[float, float]]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[float, float]] | None:
     """Start point, direction, gripper orientation (and a key) of a collision-free stroke."""

@@ -1,0 +1,89 @@
+"""A run's per-task checkpoints (policy, algorithm state, random streams) and the weights a
+run may start from, plus seeding the process's random streams."""
+
+from __future__ import annotations
+
+import io
+import logging
+import random
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from libero_bench.run_files import RUN_FORMAT
+from libero_data.errors import InputError
+from libero_data.runtime.files import write_bytes
+
+if TYPE_CHECKING:
+    import torch
+
+    from libero_bench.algos import Algo
+    from libero_bench.policies import Policy
+
+logger = logging.getLogger(__name__)
+
+
+def seed_everything(seed: int) -> None:
+    """Seed torch, NumPy's global stream and Python's ``random``."""
+    import torch
+
+    torch.manual_seed(seed)
+    np.random.seed(seed % 2**32)
+    random.seed(seed)
+
+
+def rng_state() -> dict[str, Any]:
+    """The random streams' state (saved with each checkpoint)."""
+    import torch
+
+    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
+
+
+def save_checkpoint(
+    path: Path, *, task: int, stage: str, policy_config: dict[str, Any], policy: Policy, algo: Algo
+) -> Path:
+    """Write the checkpoint after ``task`` atomically."""
+    import torch
+
+    buffer = io.BytesIO()
+    torch.save(
+        {
+            "format": RUN_FORMAT,
+            "task": task,
+            "stage": stage,
+            "policy_config": policy_config,
+            "policy": {k: v.detach().cpu() for k, v in policy.state_dict().items()},
+            "algo": algo.state_dict(),
+            "rng": rng_state(),
+        },
+        buffer,
+    )
+    return write_bytes(path, buffer.getvalue())
+
+
+def load_checkpoint(path: Path, policy: Policy, algo: Algo) -> None:
+    """Load a checkpoint's policy weights and algorithm state (and bind the two)."""
+    import torch
+
+    data = torch.load(path, map_location="cpu", weights_only=False)
+    policy.load_state_dict(data["policy"])
+    algo.load_state_dict(data["algo"])
+    algo.bind(policy)
+
+
+def load_initial_weights(path: Path, policy: Policy, device: torch.device, policy_name: str) -> None:
+    """Start ``policy`` from other weights (a run's checkpoint, or a bare state dict)."""
+    import torch
+
+    data = torch.load(path, map_location=device, weights_only=False)
+    state = data.get("policy", data) if isinstance(data, dict) else data
+    try:
+        policy.load_state_dict(state)
+    except RuntimeError as exc:
+        first = str(exc).strip().splitlines()[0]
+        raise InputError(
+            f"the initial checkpoint {path} does not fit the {policy_name} policy: {first}",
+            field="init_checkpoint",
+        ) from None
+    logger.info("policy initialised from %s", path)

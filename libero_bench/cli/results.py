@@ -1,0 +1,80 @@
+"""``libero-bench report`` and ``replay``: a run's scores with plots, and its stored rollouts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from libero_data.cli.common import console, say, user_errors
+
+
+def print_table(rows: list[list[str]]) -> None:
+    """The scores table (one row per method) on the terminal."""
+    from rich.table import Table
+
+    from libero_bench.report import TABLE_HEADER
+
+    table = Table(title_justify="left")
+    for column in TABLE_HEADER:
+        table.add_column(column)
+    for row in rows:
+        table.add_row(*row)
+    console().print(table)
+
+
+@user_errors
+def report_cmd(
+    runs: Annotated[list[Path], typer.Argument(help="Run folders (seeds of one method are averaged).")],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Report folder; default: FIRST_RUN/report.")
+    ] = None,
+) -> None:
+    """FWT / NBT / AUC (mean ± standard error over runs), success matrix and curves (PNG), JSON."""
+    from libero_bench.report import table_rows, write_report
+
+    summary = write_report(runs, out or (runs[0] / "report"))
+    print_table(table_rows(summary))
+    for path in summary["files"]:
+        say(f"wrote {path}")
+
+
+@user_errors
+def replay_cmd(
+    run: Annotated[Path, typer.Argument(help="A run folder.")],
+    task: Annotated[str, typer.Option("--task", help="Task name or position in the run.")],
+    rollout: Annotated[
+        int | None,
+        typer.Option(
+            "--rollout", help="Which of the task's rollouts (in run order); omit to list them.", min=0
+        ),
+    ] = None,
+    rrd: Annotated[Path | None, typer.Option("--rrd", help="Save the Rerun recording here.")] = None,
+) -> None:
+    """Show a stored evaluation rollout: list a task's rollouts, or save one's Rerun recording."""
+    import shutil
+
+    from libero_bench.run_files import RunFolder, task_rollouts
+
+    folder = RunFolder(run)
+    chosen, mine = task_rollouts(folder, task)
+    if rollout is None:
+        for i, r in enumerate(mine):
+            when = {
+                "learning": f"while learning it, epoch {r['epoch']}",
+                "pruned": "after pruning, before fine-tuning",
+                "after": f"checkpoint kept after task {r['learned_after']}",
+            }.get(r["phase"], r["phase"])
+            outcome = "success" if r["success"] else "failure"
+            say(f"{i:4d}  {r['key']}  {when}: {outcome} ({r['steps']} steps)")
+        return
+    record, source = folder.rollout_recording(chosen, mine, rollout)
+    outcome = "success" if record["success"] else "failure"
+    say(f"{record['key']}: {chosen['language']} — {outcome} after {record['steps']} steps")
+    if rrd is None:
+        say(f"recording: {source}\nopen it with: rerun {source}")
+        return
+    rrd.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(source, rrd)
+    say(f"wrote {rrd}")

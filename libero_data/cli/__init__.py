@@ -1,0 +1,35 @@
+"""``libero-data``: LIBERO tasks, scenes and demonstration datasets from the command line.
+
+One module per command; each builds a typed request from its options and calls the library.
+Bad input (an unknown task, malformed BDDL, a bad flag) prints one sentence and exits with 2.
+"""
+
+from __future__ import annotations
+
+import typer
+
+from libero_data.cli import card, dataset, expert_report, generate, scenes, tasks
+
+app = typer.Typer(
+    name="libero-data",
+    help="LIBERO tasks, scenes and demonstration datasets (LeRobot v3 format).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+app.command("tasks")(tasks.tasks_cmd)
+app.command("show")(tasks.show_cmd)
+app.command("generate")(generate.generate_cmd)
+app.command("scenes")(scenes.scenes_cmd)
+app.command("contact-sheet")(scenes.contact_sheet_cmd)
+app.command("validate")(dataset.validate_cmd)
+app.command("replay")(dataset.replay_cmd)
+app.command("expert-report")(expert_report.expert_report_cmd)
+app.command("card")(card.card_cmd)
+
+
+def main() -> None:
+    from libero_data.numerics import pin
+
+    pin()  # before anything loads NumPy: see libero_data.numerics
+    app()

@@ -1,0 +1,38 @@
+"""``libero-data card``: the card ``generate`` would write for a suite, from an expert report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from libero_data.cli.common import say, user_errors
+
+
+@user_errors
+def card_cmd(
+    suite: Annotated[str, typer.Option("--suite", "-s", help="Suite name.")],
+    report: Annotated[
+        Path, typer.Option("--expert-report", help="expert_report.csv from `libero-data expert-report`.")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Markdown file to write.")],
+    episodes_per_task: Annotated[int, typer.Option("--episodes-per-task", "-n", min=1)] = 50,
+    image_size: Annotated[int, typer.Option("--image-size", min=32, max=512)] = 128,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+) -> None:
+    """Render the dataset card that `generate` would write for a suite, from an expert report."""
+    from libero_data.cards.expert_table import read_rates, report_settings
+    from libero_data.pipeline.describe import suite_card
+    from libero_data.runtime.files import write_text
+
+    text = suite_card(
+        suite,
+        read_rates(report),
+        episodes_per_task=episodes_per_task,
+        image_size=image_size,
+        seed=seed,
+        measured_by=report_settings(report.with_suffix(".jsonl")),
+    )
+    write_text(out, text)
+    say(f"wrote {out}")

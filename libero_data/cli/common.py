@@ -1,0 +1,135 @@
+"""What every command of both command-line tools shares: the console, one-sentence errors,
+progress bars, and the options several commands take.
+
+Only the command line speaks of flags: the library raises its own errors
+(:mod:`libero_data.errors`) in the domain's words, and :func:`user_errors` prints them as one
+sentence (naming the option where the error names a field the command takes) with exit code 2.
+Any other exception is a bug and shows its traceback.
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any, TypeVar
+
+import typer
+from rich.console import Console
+
+from libero_data.errors import InputError, LiberoDataError
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def console(stderr: bool = False) -> Console:
+    """A console for tables and messages; wide when piped, so names are not wrapped mid-word."""
+    return Console(stderr=stderr, width=None if sys.stdout.isatty() else 240, highlight=False)
+
+
+def say(message: str, *, stderr: bool = False) -> None:
+    """Print a line as it is (no markup)."""
+    console(stderr=stderr).print(message, markup=False, soft_wrap=True)
+
+
+def fail(message: str, code: int = 2) -> typer.Exit:
+    """Print ``error: message`` on stderr; returns the exit to raise."""
+    say(f"error: {message}", stderr=True)
+    return typer.Exit(code)
+
+
+def _option_for(fn: Callable[..., Any], field: str | None) -> str | None:
+    """The command's option for a library field (``episodes_per_task`` ->
+    ``--episodes-per-task``), where the command has one: a parameter of that name, or an
+    option spelled like the field."""
+    import typing
+
+    if not field:
+        return None
+    wanted = "--" + field.replace("_", "-")
+    try:
+        hints = typing.get_type_hints(fn, include_extras=True)
+    except Exception:  # an annotation that does not resolve: no option named, the sentence stays
+        return None
+    for name, hint in hints.items():
+        decls = []
+        for info in getattr(hint, "__metadata__", ()):
+            # In ``Annotated`` form typer keeps an option's first name where a default would be.
+            first = getattr(info, "default", None)
+            decls += [first] if isinstance(first, str) and first.startswith("-") else []
+            decls += list(getattr(info, "param_decls", None) or ())
+        longs = [d for d in decls if d.startswith("--")]
+        if wanted in longs or (name == field and longs):
+            return wanted if wanted in longs else longs[0]
+    return None
+
+
+def user_errors[F: Callable[..., Any]](fn: F) -> F:
+    """Print the library's errors as one sentence with exit code 2; Ctrl-C exits with 130."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except LiberoDataError as exc:
+            option = _option_for(fn, exc.field) if isinstance(exc, InputError) else None
+            raise fail(f"{exc} ({option})" if option else str(exc)) from None
+        except KeyboardInterrupt:
+            raise fail("interrupted", code=130) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def split_list(items: list[str] | str | None) -> list[str]:
+    """Values of a repeatable, comma-separated option."""
+    if isinstance(items, str):
+        items = [items]
+    return [part.strip() for item in items or [] for part in item.split(",") if part.strip()]
+
+
+@contextmanager
+def progress(*fields: str, stderr: bool = True, eta: bool = True) -> Iterator[Any]:
+    """A rich progress display: description, bar, done/total, the named text ``fields``, time."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    columns: list[Any] = [TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn()]
+    columns += [TextColumn(f"{{task.fields[{name}]}}") for name in fields]
+    columns.append(TimeElapsedColumn())
+    if eta:
+        columns.append(TimeRemainingColumn())
+    with Progress(*columns, console=console(stderr=stderr), transient=False) as bar:
+        yield bar
+
+
+# -- options several commands take ------------------------------------------------------------------
+Workers = Annotated[
+    int, typer.Option("--workers", "-w", help="Parallel worker processes (simulation and rendering).", min=1)
+]
+Seed = Annotated[int, typer.Option("--seed", help="Seed of everything random; same seed, same result.")]
+ExecutorKind = Annotated[
+    str,
+    typer.Option(
+        "--executor",
+        help="Where the work runs: 'local' (--workers processes here) or 'ray' (Ray tasks; same results).",
+    ),
+]
+RayAddress = Annotated[
+    str | None,
+    typer.Option(
+        "--ray-address",
+        help="Ray cluster to join (e.g. ray://head:10001 or auto); default: start Ray here with --workers CPUs.",
+    ),
+]
+ImageSize = Annotated[
+    int, typer.Option("--image-size", help="Camera image size in pixels (square).", min=32, max=512)
+]
+OutFolder = Annotated[Path, typer.Option("--out", "-o", help="Output folder.")]

@@ -1,0 +1,143 @@
+"""``libero-data expert-report``: the scripted expert's success rate per task, resumable."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from libero_data.cli.common import console, progress, say, split_list, user_errors
+
+
+@user_errors
+def expert_report_cmd(
+    suite: Annotated[
+        list[str] | None, typer.Option("--suite", "-s", help="Suite(s) to measure; default: the five suites.")
+    ] = None,
+    tasks: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--tasks",
+            "-t",
+            help="Task indices or names within the suite (one --suite only; repeat or comma-separate).",
+        ),
+    ] = None,
+    inits: Annotated[
+        int, typer.Option("--inits", help="Stored init states per task (the first N).", min=1, max=50)
+    ] = 50,
+    workers: Annotated[int, typer.Option("--workers", "-w", help="Parallel worker processes.", min=1)] = 1,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of the expert's styles and fixture placement.")
+    ] = 0,
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Folder for expert_report.csv and expert_report.md.")
+    ] = Path("."),
+    fresh: Annotated[
+        bool,
+        typer.Option(
+            "--fresh",
+            help="Start over instead of resuming the report already in --out (expert_report.jsonl).",
+        ),
+    ] = False,
+) -> None:
+    """Measure the scripted expert's success rate per task over its stored init states.
+
+    Every finished task is journalled in OUT/expert_report.jsonl; stop at any time and run
+    the same command again to measure only the tasks still missing. The tables
+    (expert_report.csv / .md) are rewritten after every task.
+    """
+    from libero_data.cards.expert_table import summarise, verdict, write_report
+    from libero_data.experts.expert import ExpertConfig
+    from libero_data.experts.report import ReportJournal, run_report
+    from libero_data.tasks import SUITE_NAMES
+
+    names = split_list(suite) or list(SUITE_NAMES[:5])
+    refs = _task_refs(names, split_list(tasks))
+    config = ExpertConfig()
+    settings = _settings(inits, seed, config)
+    journal = ReportJournal(out, settings, fresh=fresh)
+    todo = [r for r in refs if r not in journal.done]
+    if len(todo) < len(refs):
+        say(
+            f"resuming: {len(refs) - len(todo)} of {len(refs)} tasks already measured in {journal.path}",
+            stderr=True,
+        )
+
+    def rows() -> list[Any]:
+        return [journal.done[r] for r in refs if r in journal.done]
+
+    with progress("last") as bar:
+        job = bar.add_task("tasks", total=len(refs), completed=len(refs) - len(todo), last="")
+
+        def finished(ref: str, result: Any) -> None:
+            journal.add(ref, result)
+            write_report(rows(), out, meta=_table_meta(rows(), settings, len(refs)))
+            bar.update(job, advance=1, last=f"{ref}: {result.successes}/{result.episodes}")
+
+        run_report(
+            todo,
+            inits,
+            seed=seed,
+            workers=workers,
+            config=config,
+            on_task=finished,
+            fingerprint=str(settings["expert"]),
+        )
+    results = rows()
+    csv_path, md_path = write_report(results, out, meta=_table_meta(results, settings, len(refs)))
+    for name, s in summarise(results).items():
+        console().print(
+            f"{name}: {s['rate']:.1%} of {int(s['episodes'])} (95% interval {s['low']:.1%}–{s['high']:.1%}; "
+            f"target {s['target']:.0%}: {verdict(s['rate'], s['high'], s['target'])}), "
+            f"lowest task {s['lowest_task_rate']:.0%}",
+            markup=False,
+        )
+    say(f"wrote {csv_path} and {md_path}")
+
+
+def _task_refs(suites: list[str], tasks: list[str]) -> list[str]:
+    from libero_data.tasks import get_suite
+
+    if tasks:
+        if len(suites) != 1:
+            raise typer.BadParameter("--tasks needs exactly one --suite", param_hint="--tasks")
+        chosen = get_suite(suites[0])
+        return list(dict.fromkeys(chosen.task(t).id for t in tasks))
+    return [t.id for name in suites for t in get_suite(name).tasks]
+
+
+def _settings(inits: int, seed: int, config: Any) -> dict[str, object]:
+    """What a report's rows depend on (a resumed report must have the same)."""
+    from libero_data.numerics import machine_fingerprint
+    from libero_data.provenance import expert_code
+    from libero_data.runtime.versions import versions
+
+    return {
+        "inits": inits,
+        "seed": seed,
+        "expert": expert_code(),
+        "config": repr(config),
+        "versions": versions(),
+        # Rows measured on another numeric path would not reproduce on one machine.
+        "numeric_key": machine_fingerprint()["numeric_key"],
+    }
+
+
+def _table_meta(rows: list[Any], settings: dict[str, object], total: int) -> dict[str, str]:
+    """The lines above the report's tables."""
+    from libero_data.numerics import machine_fingerprint
+    from libero_data.provenance import machine_line
+    from libero_data.runtime.versions import versions
+
+    machine = machine_fingerprint()
+    meta = {
+        "inits per task": str(settings["inits"]),
+        "seed": str(settings["seed"]),
+        "expert code": str(settings["expert"]),
+        "tasks measured": f"{len(rows)} of {total}",
+        "episode-minutes": f"{sum(r.seconds_per_episode * r.episodes for r in rows) / 60:.0f}",
+    }
+    meta.update({f"version {k}": v for k, v in versions().items()})
+    meta[f"numeric path {machine['numeric_key']}"] = machine_line(machine)
+    return meta

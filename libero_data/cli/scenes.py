@@ -1,0 +1,48 @@
+"""``libero-data scenes`` and ``contact-sheet``: what procedural generation samples from, and
+what a suite's tasks look like."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from libero_data.cli.common import console, say, user_errors
+
+
+def scenes_cmd() -> None:
+    """List the scene layouts and behaviour templates that `generate --procedural` samples from."""
+    from rich.table import Table
+
+    from libero_data.procedural.catalogue import load_catalogue
+    from libero_data.procedural.templates import TEMPLATES
+
+    cat = load_catalogue()
+    table = Table("scene", "kind", "fixtures", "object spots", "from shipped tasks")
+    for key, scene in cat.scenes.items():
+        fixtures = ", ".join(f.category for f in scene.fixtures) or "—"
+        table.add_row(key, scene.kind, fixtures, str(len(scene.boxes)), str(len(scene.sources)))
+    console().print(table)
+    templates = Table("template", "instruction", "goal", "starts with")
+    for t in TEMPLATES.values():
+        templates.add_row(t.name, t.pattern, " ∧ ".join(t.goal), " ∧ ".join(t.init) or "—")
+    console().print(templates)
+
+
+@user_errors
+def contact_sheet_cmd(
+    suite: Annotated[str, typer.Argument(help="Suite name or suite folder (e.g. a procedural suite).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="PNG file to write.")] = Path("contact_sheet.png"),
+    count: Annotated[int, typer.Option("--count", "-n", help="How many tasks (the first N).", min=1)] = 12,
+    size: Annotated[int, typer.Option("--size", help="Frame size in pixels.", min=32, max=512)] = 160,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the expert episodes.")] = 0,
+) -> None:
+    """A PNG grid: first and last agentview frame of one expert episode per task, with its instruction."""
+    from libero_data.procedural.contact_sheet import contact_sheet
+    from libero_data.tasks import get_suite
+
+    tasks = list(get_suite(suite).tasks[:count])
+    with console().status(f"running the expert on {len(tasks)} task(s)"):
+        path = contact_sheet(tasks, out, size=size, seed=seed)
+    say(f"wrote {path}")

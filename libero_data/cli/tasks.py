@@ -1,0 +1,90 @@
+"""``libero-data tasks`` and ``libero-data show``: the task list, and one task's initial scene."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from libero_data.cli.common import console, say, user_errors
+
+
+@user_errors
+def tasks_cmd(
+    suite: Annotated[
+        str | None,
+        typer.Option(
+            "--suite",
+            "-s",
+            help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100) or a suite folder; default: the five suites.",
+        ),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON lines instead of a table.")] = False,
+) -> None:
+    """List tasks: index, name, language instruction and goal."""
+    import json
+
+    from rich.table import Table
+
+    from libero_data.tasks import SUITE_NAMES, get_suite
+
+    suites = [get_suite(suite)] if suite else [get_suite(n) for n in SUITE_NAMES[:5]]
+    out = console()
+    for s in suites:
+        if as_json:
+            for t in s.tasks:
+                row = {
+                    "suite": s.name,
+                    "index": t.index,
+                    "name": t.name,
+                    "language": t.language,
+                    "goal": t.goal_text,
+                }
+                print(json.dumps(row))
+            continue
+        table = Table(title=f"{s.name} ({len(s.tasks)} tasks)", title_justify="left")
+        for column in ("index", "name", "language", "goal"):
+            table.add_column(column, overflow="fold")
+        for t in s.tasks:
+            table.add_row(str(t.index), t.name, t.language, t.goal_text)
+        out.print(table)
+
+
+@user_errors
+def show_cmd(
+    task: Annotated[
+        str,
+        typer.Argument(help="Task as suite/index (libero_goal/0), suite/name, task name, or a .bddl file."),
+    ],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="PNG to write; default: <task name>.png.")
+    ] = None,
+    size: Annotated[
+        int, typer.Option("--size", help="Image size in pixels per camera.", min=16, max=2048)
+    ] = 256,
+    init: Annotated[int, typer.Option("--init", help="Which stored init state to show.", min=0)] = 0,
+    seed: Annotated[
+        int,
+        typer.Option(
+            "--seed", help="Seed for fixture placement (and objects, for BDDL files without init states)."
+        ),
+    ] = 0,
+    renderer: Annotated[
+        str | None,
+        typer.Option("--renderer", help="egl or osmesa; default: $MUJOCO_GL, else the first available."),
+    ] = None,
+    bddl: Annotated[bool, typer.Option("--bddl/--no-bddl", help="Print the task's BDDL.")] = True,
+) -> None:
+    """Render a task's initial scene (agentview and eye-in-hand side by side) and print its BDDL."""
+    from libero_data.scene import render_initial_scene
+    from libero_data.tasks import get_task
+
+    resolved = get_task(task)
+    target = out or Path(f"{resolved.name}.png")
+    with console().status("building the scene (first time: ~10 s)"):
+        path = render_initial_scene(resolved, target, size=size, init=init, seed=seed, renderer=renderer)
+    if bddl:
+        say(resolved.bddl_path.read_text())
+    say(f"task: {resolved.id}  {resolved.language}")
+    say(f"wrote {path} (agentview | eye-in-hand, {size}x{size} each)")

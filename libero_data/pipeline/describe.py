@@ -1,0 +1,216 @@
+"""What a generated dataset says about itself: ``meta/libero.json`` and its card (``README.md``).
+
+Both are derived from the request, the finished shards and the suite: per task its goal, the
+episodes kept and the expert's attempts; the settings, versions, expert codes, and the machines
+and renderers that made the episodes; for a generated suite, the generator's settings.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from libero_data.pipeline.request import STORED_INITS, GenerateRequest, Slot
+
+PROJECT_URL = "https://github.com/"
+
+
+def describe_dataset(
+    request: GenerateRequest,
+    slots: list[Slot],
+    status: Mapping[str, tuple[bool, int]],
+    shards: list[Path],
+    width: int,
+    *,
+    command: str,
+    complete: bool,
+) -> tuple[dict[str, Any], dict[str, str], str]:
+    """The dataset's metadata, its tasks' BDDL texts and its card."""
+    from libero_data import provenance
+    from libero_data.cards import render_card
+    from libero_data.runtime.versions import versions
+    from libero_data.tasks import get_suite
+
+    suite = get_suite(request.suite)
+    infos = [json.loads((shard / "episode.json").read_text()) for shard in shards]
+    frames = sum(int(info["length"]) for info in infos)
+    codes = {str(info.get("expert_code", "unknown")) for info in infos}
+    machines, renderers = provenance.machines(infos), provenance.renderers(infos)
+    keys_in = {p.name for p in shards}
+    tasks = []
+    bddl = {}
+    for position, index in enumerate(request.tasks):
+        task = suite.task(index)
+        mine = [s for s in slots if s.position == position and s.key in status]
+        attempts = sum(status[s.key][1] for s in mine)
+        successes = sum(1 for s in mine if status[s.key][0])
+        episodes = sum(1 for s in mine if s.key in keys_in)
+        tasks.append(_card_task(task, episodes, attempts, successes))
+        bddl[task.name] = task.bddl_path.read_text()
+    vers = versions()
+    settings = {
+        "suite": suite.name,
+        "tasks": ", ".join(str(i) for i in request.tasks),
+        "episodes per task (requested)": str(request.episodes_per_task),
+        "image size": f"{request.image_size}×{request.image_size}",
+        "seed": str(request.seed),
+        "attempts per episode (at most)": str(request.max_attempts),
+        "fps": "20",
+        "complete": "yes" if complete else "no (generation still running or interrupted)",
+        "expert code": ", ".join(sorted(codes)),
+        **{f"version: {k}": v for k, v in vers.items()},
+        **provenance.card_settings(machines, renderers),
+        **_generator_settings(suite.manifest(), len(suite.tasks)),
+    }
+    card = render_card(
+        title=f"libero-data · {suite.name}",
+        summary=f"Scripted demonstrations of the LIBERO suite `{suite.name}`, made with [libero-data]({PROJECT_URL}) in LeRobot v3 format.",
+        suite=suite.name,
+        repo_id=request.repo_id,
+        load_path=".",
+        command=command
+        or f"libero-data generate --suite {suite.name} --episodes-per-task {request.episodes_per_task} --seed {request.seed}",
+        tasks=tasks,
+        frames=frames,
+        fps=20,
+        image_size=request.image_size,
+        sim_state_width=width,
+        settings=settings,
+        start_note=start_note(request.episodes_per_task),
+    )
+    meta = {
+        "request": request.to_dict(),
+        "versions": vers,
+        "expert_code": sorted(codes),
+        "machines": machines,
+        "renderers": renderers,
+        "complete": complete,
+        "sim_state_width": width,
+        "tasks": [_task_meta(t) for t in tasks],
+    }
+    return meta, bddl, card
+
+
+def _task_meta(t: Any) -> dict[str, Any]:
+    return {
+        "index": t.index,
+        "name": t.name,
+        "language": t.language,
+        "goal": t.goal,
+        "episodes": t.episodes,
+        "attempts": t.attempts,
+        "successes": t.successes,
+    }
+
+
+def start_note(episodes_per_task: int) -> str:
+    """Where the card says the episodes started."""
+    stored = min(episodes_per_task, STORED_INITS)
+    note = (
+        f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k); "
+        + (
+            "further episodes start from placements drawn by LIBERO's own sampler for that task, seeded."
+            if episodes_per_task > STORED_INITS
+            else ""
+        )
+    )
+    return note.strip()
+
+
+def _card_task(task: Any, episodes: int, attempts: int, successes: int) -> Any:
+    from libero_data.bddl import formula_text
+    from libero_data.cards import CardTask
+
+    return CardTask(
+        task.index, task.name, task.language, formula_text(task.problem.goal), episodes, attempts, successes
+    )
+
+
+def _generator_settings(manifest: Mapping[str, Any], kept: int) -> dict[str, str]:
+    """The card rows of a generated suite's generator (none for a shipped suite)."""
+    generator = manifest.get("generator")
+    if not generator:
+        return {}
+    g = generator["settings"]
+    return {
+        "procedural generator: seed": str(g["seed"]),
+        "procedural generator: candidates / kept": f"{generator.get('candidates', g['n'])} / {kept}",
+        "procedural generator: settings": json.dumps(g, sort_keys=True),
+        "procedural generator: acceptance": (
+            f"the expert solved at least half of {g['check_inits']} initial states drawn by LIBERO's sampler "
+            "(every candidate and its verdict: procedural_report.md)"
+        ),
+    }
+
+
+def suite_card(
+    suite_name: str,
+    rates: dict[str, tuple[int, int]],
+    *,
+    episodes_per_task: int = 50,
+    image_size: int = 128,
+    seed: int = 0,
+    measured_by: dict[str, str] | None = None,
+) -> str:
+    """The card ``generate --suite`` writes with these settings, before any data exists.
+
+    ``rates`` maps task names to (successes, attempts) of the expert (e.g. from
+    ``libero-data expert-report``); frame counts are only known once generated.
+    ``measured_by`` (the report's expert code, init states, seed) is stated beside them.
+    """
+    from libero_data.cards import render_card
+    from libero_data.pipeline.request import sim_state_width
+    from libero_data.runtime.versions import versions
+    from libero_data.tasks import get_suite
+
+    suite = get_suite(suite_name)
+    request = GenerateRequest(
+        suite=suite.name,
+        tasks=tuple(t.index for t in suite.tasks),
+        episodes_per_task=episodes_per_task,
+        image_size=image_size,
+        seed=seed,
+        repo_id=f"libero-data/{suite.name}",
+    )
+    tasks = []
+    for task in suite.tasks:
+        successes, attempts = rates.get(task.name, (0, 0))
+        tasks.append(_card_task(task, episodes_per_task, attempts, successes))
+    settings = {
+        "suite": suite.name,
+        "episodes per task": str(episodes_per_task),
+        "image size": f"{image_size}×{image_size}",
+        "seed": str(seed),
+        "attempts per episode (at most)": str(request.max_attempts),
+        "fps": "20",
+        **{f"version: {k}": v for k, v in versions().items()},
+        **{f"expert report: {k}": v for k, v in (measured_by or {}).items()},
+    }
+    stored = min(episodes_per_task, STORED_INITS)
+    by = ", ".join(f"{k} {v}" for k, v in (measured_by or {}).items())
+    return render_card(
+        title=f"libero-data · {suite.name}",
+        summary=(
+            f"Scripted demonstrations of the LIBERO suite `{suite.name}` in LeRobot v3 format. This card was "
+            "rendered before generation, from the expert's measured success rates (`libero-data expert-report`, "
+            "one attempt per stored init state); `libero-data generate` writes the same card with the dataset's "
+            "own counts."
+        ),
+        suite=suite.name,
+        repo_id=request.repo_id,
+        load_path=".",
+        command=f"libero-data generate --suite {suite.name} --out <dir>",
+        tasks=tasks,
+        frames=None,
+        fps=20,
+        image_size=image_size,
+        sim_state_width=sim_state_width(request),
+        settings=settings,
+        start_note=f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k).",
+        expert_note=(
+            "Here: successes over the first attempts from the stored init states, as measured by the expert report"
+            + (f" ({by})." if by else ".")
+        ),
+    )

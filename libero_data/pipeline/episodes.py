@@ -1,0 +1,207 @@
+"""Making one task's episodes (the job ``generate`` runs in its workers): search, then record.
+
+For each slot the expert searches without cameras, retrying with new seeds until an attempt
+succeeds (failed attempts are discarded); the search's record is saved at once. The kept
+episode is then re-rendered from its states and written as a one-episode shard with its MCAP
+log. Both are files under the work folder: ``search/<key>.npz`` and ``shards/<key>/``.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from libero_data.pipeline.request import STORED_INITS, GenerateRequest, Slot
+from libero_data.runtime.files import load_record, save_record
+from libero_data.runtime.jobs import WorkerCache, WorkerContext
+from libero_data.seeding import demo_key, episode_seeds
+
+#: The fingerprint of an episode searched before fingerprints were recorded.
+UNKNOWN_MACHINE: dict[str, Any] = {"numeric_key": "unknown"}
+
+
+def search_path(slot: Slot) -> Path:
+    """Where a slot's search record lives, relative to the work folder."""
+    return Path("search") / f"{slot.key}.npz"
+
+
+def shard_path(slot: Slot) -> Path:
+    """Where a slot's shard lives, relative to the work folder."""
+    return Path("shards") / slot.key
+
+
+@dataclass(frozen=True)
+class EpisodeJob:
+    """Some episode numbers of one task, as a worker gets them."""
+
+    request: GenerateRequest
+    position: int  # the task's place in the request
+    task_index: int  # its index in the suite
+    ks: tuple[int, ...]
+    sim_state_width: int
+
+
+@dataclass(frozen=True)
+class EpisodeDone:
+    """Reported as each episode is finished (its shard on disk) or given up."""
+
+    key: str
+    k: int
+    success: bool
+    attempts: int
+
+
+def expert_env(cache: WorkerCache, task: Any, image_size: int) -> tuple[Any, Any]:
+    """(env, expert) of ``task`` at ``image_size`` from the worker's cache, built when it changed.
+
+    Episodes do not depend on what ran before them in an environment (``reset`` and
+    ``set_state`` put everything that shapes a trajectory in a canonical form), so keeping one
+    between jobs changes no result; and the first rebuild in a process measured +290 MiB
+    resident that closing the old one did not give back.
+    """
+    from libero_data.experts.expert import Expert, ExpertConfig
+    from libero_data.sim import EnvConfig, LiberoEnv
+
+    def build() -> tuple[Any, Any]:
+        env = LiberoEnv(task, EnvConfig(image_size=image_size))
+        return env, Expert(env, ExpertConfig())
+
+    key = (str(task.suite), int(task.index), int(image_size))
+    return cache.get("env", key, build, close=lambda pair: pair[0].close())
+
+
+def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot: Slot) -> dict[str, Any]:
+    """Run attempts until one succeeds; the record of the kept (or last) attempt."""
+    from libero_data.numerics import machine_fingerprint
+    from libero_data.provenance import expert_code
+
+    stored = task.init_states() if task.init_states_path is not None else None
+    code = expert_code()
+    machine = machine_fingerprint()
+    failures: list[str] = []
+    for attempt in range(request.max_attempts):
+        reset_seed, expert_seed = episode_seeds(
+            request.seed, demo_key(task.suite, task.name, slot.k), attempt
+        )
+        if stored is not None and slot.k < min(STORED_INITS, len(stored)):
+            init_index, init = slot.k, stored[slot.k]
+        else:
+            init_index, init = -1, None  # LIBERO's own placement sampler, from reset_seed
+        episode = expert.run(init, reset_seed=reset_seed, seed=expert_seed)
+        if episode.success:
+            return {
+                "success": True,
+                "attempts": attempt + 1,
+                "failures": failures,
+                "init_index": init_index,
+                "reset_seed": reset_seed,
+                "expert_seed": expert_seed,
+                "actions": episode.actions,
+                "states": episode.states,
+                "final_state": episode.final_state,
+                "plan": episode.plan,
+                "expert_code": code,
+                "machine": machine,
+            }
+        failures.append(episode.failure or "unknown")
+    return {
+        "success": False,
+        "attempts": request.max_attempts,
+        "failures": failures,
+        "expert_code": code,
+        "machine": machine,
+    }
+
+
+def episode_info(task: Any, record: dict[str, Any], gl: dict[str, str]) -> dict[str, Any]:
+    """What a kept episode's ``episode.json`` says about it, beside its frames."""
+    return {
+        "suite": task.suite,
+        "task_index": task.index,
+        "task_name": task.name,
+        "language": task.language,
+        "init_index": int(record["init_index"]),
+        "reset_seed": int(record["reset_seed"]),
+        "expert_seed": int(record["expert_seed"]),
+        "attempt": int(record["attempts"]) - 1,
+        "sim_state_dim": int(record["states"].shape[1]),
+        "plan": list(record["plan"]),
+        # The code that searched the episode (a run resumed after an update of the expert or
+        # simulator keeps the episodes found before it).
+        "expert_code": record.get("expert_code", "unknown"),
+        # The numeric path that searched it (what a replay must match bit for bit) and the
+        # OpenGL renderer that drew its images.
+        "machine": record.get("machine") or UNKNOWN_MACHINE,
+        "gl": gl,
+        "success": True,
+    }
+
+
+def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
+    """Search and record the job's episodes (a :mod:`~libero_data.runtime.jobs` job).
+
+    An episode's shard is completed (videos flushed, parquet, MCAP, moved into place) in a
+    background thread while the next episode is searched and rendered: the search runs on one
+    core and leaves the other free. An episode is reported only once its shard is on disk.
+    """
+    from libero_data.record.shard import render_shard
+    from libero_data.runtime.memory import release_free_memory
+    from libero_data.tasks import get_suite
+
+    request = job.request
+    task = get_suite(request.suite).task(job.task_index)
+    done: list[EpisodeDone] = []
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shard-writer")
+    pending: tuple[Slot, dict[str, Any], Future[Path] | None] | None = None
+
+    def settle() -> None:
+        """Wait for the previous episode's shard, then report that episode."""
+        nonlocal pending
+        if pending is None:
+            return
+        slot, record, finishing = pending
+        pending = None
+        if finishing is not None:
+            finishing.result()
+            release_free_memory()  # what the episode's encoders and buffers freed
+            ctx.ship(shard_path(slot))
+        ctx.ship(search_path(slot))  # last: its presence marks the slot as done
+        event = EpisodeDone(slot.key, slot.k, bool(record["success"]), int(record["attempts"]))
+        done.append(event)
+        ctx.report(event)
+
+    try:
+        for k in job.ks:
+            slot = Slot(job.position, job.task_index, k)
+            search, shard = ctx.root / search_path(slot), ctx.root / shard_path(slot)
+            if search.is_file():
+                record = load_record(search)
+            else:
+                env, expert = expert_env(ctx.cache, task, request.image_size)
+                record = search_slot(env, expert, task, request, slot)
+                save_record(search, record)
+            finishing = None
+            if record["success"] and not shard.is_dir():
+                env, _expert = expert_env(ctx.cache, task, request.image_size)
+                env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
+                finish = render_shard(
+                    shard,
+                    env=env,
+                    states=record["states"],
+                    actions=record["actions"],
+                    final_state=record["final_state"],
+                    task=task.name,
+                    instruction=task.language,
+                    image_size=request.image_size,
+                    sim_state_width=job.sim_state_width,
+                    info=episode_info(task, record, env.gl_info()),
+                )
+                finishing = writer.submit(finish)
+            settle()
+            pending = (slot, record, finishing)
+        settle()
+    finally:
+        writer.shutdown(wait=True)  # an interrupted job still completes the shard in hand
+    return done

@@ -1,0 +1,113 @@
+"""What ``generate`` is asked for: the request, checked and resolved, and its slots.
+
+A request names a suite (a shipped one or a suite folder), the tasks in it, how many episodes
+each, the image size, the seed and how many attempts an episode may take. Equal requests give
+equal datasets. The work is split into *slots*, one per (task, episode number).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from libero_data.config import Config
+from libero_data.errors import InputError
+
+#: LIBERO's stored init states per task; episode k < 50 of a task starts from init state k.
+STORED_INITS = 50
+
+
+@dataclass(frozen=True)
+class GenerateRequest(Config):
+    """What to generate; equal requests give equal datasets."""
+
+    suite: str
+    tasks: tuple[int, ...]
+    episodes_per_task: int = 50
+    image_size: int = 128
+    seed: int = 0
+    max_attempts: int = 8
+    repo_id: str = ""
+
+    def __post_init__(self) -> None:
+        if self.episodes_per_task < 1:
+            raise InputError(
+                f"episodes per task must be at least 1, got {self.episodes_per_task}",
+                field="episodes_per_task",
+            )
+        if not 32 <= self.image_size <= 512:
+            raise InputError(f"the image size must be in 32..512, got {self.image_size}", field="image_size")
+        if self.max_attempts < 1:
+            raise InputError(
+                f"attempts per episode must be at least 1, got {self.max_attempts}", field="max_attempts"
+            )
+        if not self.tasks:
+            raise InputError("no tasks selected", field="tasks")
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One episode to make: the task's place in the request, its suite index, the episode number."""
+
+    position: int
+    task_index: int
+    k: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.position:03d}-{self.k:05d}"
+
+
+def resolve_request(
+    suite: str,
+    tasks: list[str] | None = None,
+    *,
+    episodes_per_task: int = 50,
+    image_size: int = 128,
+    seed: int = 0,
+    max_attempts: int = 8,
+    repo_id: str | None = None,
+) -> GenerateRequest:
+    """Check the user's choices and turn task names/indices into suite indices."""
+    from libero_data.tasks import get_suite
+
+    s = get_suite(suite)
+    if tasks:
+        indices = [s.task(ref).index for ref in tasks]
+        if len(set(indices)) != len(indices):
+            raise InputError("the task list names a task twice", field="tasks")
+    else:
+        indices = [t.index for t in s.tasks]
+    suite_id = str(Path(suite).resolve()) if s.path is not None else s.name
+    return GenerateRequest(
+        suite=suite_id,
+        tasks=tuple(indices),
+        episodes_per_task=episodes_per_task,
+        image_size=image_size,
+        seed=seed,
+        max_attempts=max_attempts,
+        repo_id=repo_id or f"libero-data/{s.name}",
+    )
+
+
+def slots_of(request: GenerateRequest) -> list[Slot]:
+    """Every slot of the request, task by task (the dataset's episode order)."""
+    return [Slot(pos, t, k) for pos, t in enumerate(request.tasks) for k in range(request.episodes_per_task)]
+
+
+def sim_state_width(request: GenerateRequest) -> int:
+    """Widest flattened MuJoCo state among the requested tasks (stored init states tell it)."""
+    from libero_data.tasks import get_suite
+
+    suite = get_suite(request.suite)
+    widths = []
+    for index in request.tasks:
+        task = suite.task(index)
+        if task.init_states_path is not None:
+            widths.append(int(task.init_states().shape[1]))
+        else:
+            from libero_data.sim import EnvConfig, LiberoEnv
+
+            with LiberoEnv(task, EnvConfig(cameras=())) as env:
+                widths.append(env.state_dim)
+    return max(widths)

@@ -1,0 +1,94 @@
+"""The work folder of a resumable job: one writer at a time, the settings it was started with,
+and clean-up of what an interrupted run left half-written.
+
+A long command (``generate``, ``expert-report``, a procedural suite, a benchmark run) keeps
+its state in a folder. Running the same command again continues it; running another command
+on it is refused with the settings that differ, instead of mixing two jobs' results.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import json
+import shutil
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from libero_data.errors import FolderBusy, SettingsChanged
+from libero_data.runtime.files import write_json
+
+#: The hidden work folder inside a dataset folder (``libero-data``'s state while it generates).
+DATASET_WORK = ".libero-data"
+
+
+def changed_keys(saved: Mapping[str, Any], now: Mapping[str, Any], ignore: Iterable[str] = ()) -> list[str]:
+    """The top-level keys whose values differ (sorted), leaving out ``ignore``."""
+    skip = set(ignore)
+    return sorted(k for k in set(saved) | set(now) if k not in skip and saved.get(k) != now.get(k))
+
+
+class WorkFolder:
+    """A folder holding one resumable job's state; ``what`` names the job in messages."""
+
+    def __init__(self, root: Path, what: str) -> None:
+        self.root = Path(root)
+        self.what = what
+
+    def path(self, *parts: str) -> Path:
+        return self.root.joinpath(*parts)
+
+    @contextlib.contextmanager
+    def locked(self, owner: Path | None = None) -> Iterator[None]:
+        """Hold the folder's lock for the block; :class:`FolderBusy` if another process has it."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        with (self.root / "lock").open("w") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise FolderBusy(
+                    f"another process is writing the {self.what} in {owner or self.root}"
+                ) from None
+            try:
+                yield
+            finally:
+                fcntl.flock(handle, fcntl.LOCK_UN)
+
+    def claim(
+        self,
+        settings: Mapping[str, Any],
+        *,
+        name: str = "settings.json",
+        ignore: Iterable[str] = (),
+        owner: Path | None = None,
+        advice: str = "use the same command to continue it, or another output folder",
+    ) -> dict[str, Any] | None:
+        """Record ``settings`` as the folder's, or check them against those recorded.
+
+        Returns the recorded settings (None on first use). Raises :class:`SettingsChanged`
+        naming the keys that differ (``ignore`` lists keys that may change between runs).
+        """
+        path = self.root / name
+        if not path.is_file():
+            write_json(path, dict(settings), newline=False)
+            return None
+        saved = json.loads(path.read_text())
+        changed = changed_keys(saved, settings, ignore)
+        if changed:
+            raise SettingsChanged(
+                f"{owner or self.root} holds a {self.what} made with different settings "
+                f"({', '.join(changed)}); {advice}",
+                changed=changed,
+            )
+        return dict(saved)
+
+    def clean(self, *patterns: str) -> None:
+        """Remove what matches ``patterns`` (glob, relative to the folder): scratch files and
+        folders an interrupted run left behind."""
+        for pattern in patterns:
+            for path in self.root.glob(pattern):
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    path.unlink(missing_ok=True)

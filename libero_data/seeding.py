@@ -1,0 +1,91 @@
+"""Every seed this project derives, in one place.
+
+A user gives one seed per command (``--seed``); everything random below it is derived here,
+from that seed and the identity of the thing being made, never from the order work happens
+to run in. So a result depends on the request only: not on ``--workers``, on Ray, on which
+episodes an interrupted run had finished, or on the machine.
+
+=====================================  ============================================================
+what                                   derived from
+=====================================  ============================================================
+demonstration episode (``generate``)   ``episode_seeds(seed, "<suite>/<task name>/<k>", attempt)``
+expert report episode                  ``episode_seeds(seed, "<suite>/<task index>", init index)``
+procedural candidate: starts, expert   ``candidate_seed(seed, task name, i)``; the expert's
+                                       ``candidate_seed(seed, task name, 1000 + i)``
+procedural sampling                    ``sampler_rng(seed)``
+robustness variant                     ``variant_rng(seed, task index, kind position)``
+benchmark run: weights, task, loaders  ``run_seed(seed, task position, stream)``, streams below
+a loader's epoch                       ``loader_epoch_seed(loader seed, epoch)``
+evaluation rollout ``r``               ``rollout_start(r, stored init states)``
+=====================================  ============================================================
+
+An episode's two seeds are a *reset seed* (LIBERO places fixtures, and objects where no
+stored init state is given) and an *expert seed* (the expert's style: grasp choices,
+speeds). The derivations are frozen: changing one changes every dataset made since.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+
+#: ``run_seed`` streams: initial weights (task 0), a task's start, its loader, the loader
+#: the algorithm's ``end_task`` reads (Fisher, replay memory).
+WEIGHTS, TASK_START, LOADER, END_TASK_LOADER = 0, 1, 2, 3
+#: Offset of the expert's seeds from the starts' in ``candidate_seed``.
+CANDIDATE_EXPERT = 1000
+
+
+def stable_hash(text: str) -> int:
+    """32 bits of SHA-256 of ``text``: the same in every process (unlike ``hash``)."""
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
+
+
+def episode_seeds(seed: int, task_key: str, index: int) -> tuple[int, int]:
+    """(reset seed, expert seed) of one expert episode."""
+    a, b = np.random.SeedSequence([seed, stable_hash(task_key), index]).generate_state(2)
+    return int(a), int(b)
+
+
+def demo_key(suite: str, task_name: str, k: int) -> str:
+    """The ``task_key`` of episode ``k`` of a task in ``generate`` (its attempts are the index)."""
+    return f"{suite}/{task_name}/{k}"
+
+
+def candidate_seed(seed: int, task_name: str, i: int) -> int:
+    """Seed ``i`` of a procedural candidate: its ``i``-th sampled start, or (from
+    :data:`CANDIDATE_EXPERT` on) the expert's seed for that start."""
+    return int(np.random.SeedSequence([seed, stable_hash(task_name), i]).generate_state(1)[0])
+
+
+def sampler_rng(seed: int) -> np.random.Generator:
+    """The stream that draws procedural tasks (templates, scenes, objects, placements)."""
+    return np.random.default_rng(np.random.SeedSequence([seed, 0x11BE70]))
+
+
+def variant_rng(seed: int, task_index: int, kind_position: int) -> np.random.Generator:
+    """The stream of one robustness variant of a shipped task."""
+    return np.random.default_rng(np.random.SeedSequence([seed, task_index, kind_position, 0x7A51]))
+
+
+def run_seed(seed: int, task: int, stream: int) -> int:
+    """A 63-bit seed of a benchmark run for ``task`` (its position in the run) and ``stream``
+    (:data:`WEIGHTS`, :data:`TASK_START`, :data:`LOADER`, :data:`END_TASK_LOADER`)."""
+    value = 0x9E3779B97F4A7C15
+    for part in (seed, task, stream):
+        value = (value ^ (int(part) & 0xFFFFFFFFFFFFFFFF)) * 0xBF58476D1CE4E5B9 & 0xFFFFFFFFFFFFFFFF
+        value ^= value >> 31
+    return value & 0x7FFFFFFFFFFFFFFF
+
+
+def loader_epoch_seed(seed: int, epoch: int) -> int:
+    """The seed that shuffles epoch ``epoch`` of a training loader seeded with ``seed``."""
+    return (seed * 1_000_003 + epoch) % 2**63
+
+
+def rollout_start(rollout: int, stored: int) -> tuple[int, int]:
+    """(init state index, fixture seed) of evaluation rollout ``rollout`` of a task with
+    ``stored`` init states; index -1 where there are none (objects placed from the seed).
+    The same for every epoch and checkpoint, so evaluations compare like with like."""
+    return (rollout % stored if stored > 0 else -1), rollout

@@ -1,0 +1,144 @@
+"""The shape of the house: one-way imports, no cycles, no private names across modules, parallel
+machinery in the runtime core only, and modules and functions small enough to read."""
+
+from __future__ import annotations
+
+import ast
+from collections import defaultdict
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("libero_data", "libero_bench")
+#: Guides with some slack (ARCHITECTURE.md: modules ~400 lines, functions ~80).
+MOST_MODULE_LINES = 450
+MOST_FUNCTION_LINES = 100
+
+
+def _modules() -> dict[str, Path]:
+    found = {}
+    for package in PACKAGES:
+        for path in (ROOT / package).rglob("*.py"):
+            parts = list(path.relative_to(ROOT).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            found[".".join(parts)] = path
+    return found
+
+
+MODULES = _modules()
+
+
+def _owner(name: str) -> str | None:
+    """The project module a dotted name lives in (a module, or an attribute of one)."""
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _imports() -> tuple[dict[str, set[str]], list[str]]:
+    """Every import between project modules (lazy and type-only ones too), and private names
+    imported from another module."""
+    graph: dict[str, set[str]] = defaultdict(set)
+    private = []
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] in PACKAGES:
+                for alias in node.names:
+                    full = f"{node.module}.{alias.name}"
+                    target = full if full in MODULES else _owner(node.module)
+                    if target and target != module:
+                        graph[module].add(target)
+                    if alias.name.startswith("_") and full not in MODULES and node.module != module:
+                        private.append(f"{module} imports {node.module}.{alias.name}")
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    target = _owner(alias.name) if alias.name.split(".")[0] in PACKAGES else None
+                    if target and target != module:
+                        graph[module].add(target)
+    return graph, private
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected groups of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for module in sorted(MODULES):
+        if module not in index:
+            visit(module)
+    return found
+
+
+def test_no_import_cycles_and_no_private_names_across_modules() -> None:
+    graph, private = _imports()
+    assert _cycles(graph) == []
+    assert private == []
+
+
+def test_data_never_imports_the_benchmark() -> None:
+    graph, _ = _imports()
+    back = sorted(
+        f"{m} -> {t}"
+        for m, ts in graph.items()
+        if m.startswith("libero_data")
+        for t in ts
+        if t.startswith("libero_bench")
+    )
+    assert back == []
+
+
+def test_process_pools_and_ray_live_in_the_runtime_core_only() -> None:
+    forbidden = (
+        "import multiprocessing",
+        "from multiprocessing",
+        "ProcessPoolExecutor",
+        "import ray",
+        "ray.remote",
+    )
+    offenders = []
+    for module, path in MODULES.items():
+        if module.startswith("libero_data.runtime"):
+            continue
+        text = path.read_text()
+        offenders += [f"{module}: {word}" for word in forbidden if word in text]
+    assert offenders == []
+
+
+def test_modules_and_functions_stay_readable() -> None:
+    long_modules = []
+    long_functions = []
+    for module, path in MODULES.items():
+        text = path.read_text()
+        if len(text.splitlines()) > MOST_MODULE_LINES:
+            long_modules.append(f"{module}: {len(text.splitlines())} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                lines = (node.end_lineno or node.lineno) - node.lineno + 1
+                if lines > MOST_FUNCTION_LINES:
+                    long_functions.append(f"{module}.{node.name}: {lines} lines")
+    assert long_modules == []
+    assert long_functions == []
