@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
 from libero_data.errors import InputError
+from libero_data.runtime.files import write_bytes
 from libero_data.tasks import Task
 
 
@@ -38,8 +40,6 @@ def render_initial_scene(
     with LiberoEnv(task, EnvConfig(image_size=size, renderer=renderer)) as env:
         obs = env.reset(state, seed=seed)
         picture = np.concatenate([obs["agentview"], obs["eye_in_hand"]], axis=1)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    Image.fromarray(picture).save(tmp, format="PNG")
-    tmp.replace(out)
-    return out
+    png = io.BytesIO()
+    Image.fromarray(picture).save(png, format="PNG")
+    return write_bytes(out, png.getvalue())

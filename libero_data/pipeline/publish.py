@@ -18,6 +18,8 @@ import os
 import shutil
 from pathlib import Path
 
+from libero_data.runtime.files import write_json
+
 ENTRIES = ("videos", "mcap", "data", "meta", "README.md")
 STAMP = ".libero-data-snapshot"
 _RENAME_EXCHANGE = 2
@@ -73,9 +75,7 @@ def publish(snapshot: Path, dest: Path, journal: Path) -> None:
     snapshot_id = stamp_of(snapshot / "meta")
     if snapshot_id is None:
         raise ValueError(f"{snapshot} is not a stamped snapshot")
-    tmp = journal.with_name(journal.name + ".tmp")
-    tmp.write_text(json.dumps({"snapshot": str(snapshot), "id": snapshot_id}))
-    os.replace(tmp, journal)
+    write_json(journal, {"snapshot": str(snapshot), "id": snapshot_id}, indent=None, newline=False)
     _finish(snapshot, dest, snapshot_id)
     journal.unlink()
 

@@ -10,12 +10,13 @@ from __future__ import annotations
 import base64
 import io
 import json
-import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from libero_data.runtime.files import write_bytes
 
 _TIME = {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}}
 SCHEMAS: dict[str, dict[str, Any]] = {
@@ -112,10 +113,8 @@ def write_episode_mcap(
     """
     from mcap.writer import Writer
 
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
     step_ns = 1_000_000_000 // fps
-    with tmp.open("wb") as stream:
+    with io.BytesIO() as stream:
         writer = Writer(stream)
         writer.start(profile="", library="libero-data")
         schema_ids = {
@@ -168,10 +167,7 @@ def write_episode_mcap(
             )
             emit("/success", ns, {"timestamp": _stamp(ns), "frame_index": t, "success": bool(success[t])})
         writer.finish()
-        stream.flush()
-        os.fsync(stream.fileno())
-    tmp.replace(path)
-    return path
+        return write_bytes(Path(path), stream.getvalue())
 
 
 def read_mcap(path: str | Path) -> Iterator[tuple[str, int, dict[str, Any]]]:
