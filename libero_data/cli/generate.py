@@ -78,8 +78,16 @@ EpisodesPerTask = Annotated[
     typer.Option(
         "--episodes-per-task",
         "-n",
-        help="Successful episodes to keep per task; the first 50 start from LIBERO's stored init states.",
+        help="Successful episodes to keep per task.",
         min=1,
+    ),
+]
+Starts = Annotated[
+    str,
+    typer.Option(
+        "--starts",
+        help="Where episodes start: 'sampler' (LIBERO's placement sampler, seeds no evaluation uses) or "
+        "'stored' (LIBERO's 50 stored init states, which the paper's evaluation starts from, then the sampler).",
     ),
 ]
 MaxAttempts = Annotated[
@@ -122,6 +130,7 @@ def generate_cmd(
     kinds: Kinds = None,
     episodes_per_task: EpisodesPerTask = 50,
     image_size: ImageSize = 128,
+    starts: Starts = "sampler",
     workers: Workers = 1,
     seed: Seed = 0,
     max_attempts: MaxAttempts = 8,
@@ -159,6 +168,7 @@ def generate_cmd(
         seed=seed,
         max_attempts=max_attempts,
         repo_id=repo_id,
+        starts=starts,
     )
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     say(

@@ -56,6 +56,7 @@ def describe_dataset(
         "episodes per task (requested)": str(request.episodes_per_task),
         "image size": f"{request.image_size}×{request.image_size}",
         "seed": str(request.seed),
+        "starts": START_WORDS[request.starts],
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         "complete": "yes" if complete else "no (generation still running or interrupted)",
@@ -78,7 +79,7 @@ def describe_dataset(
         image_size=request.image_size,
         sim_state_width=width,
         settings=settings,
-        start_note=start_note(request.episodes_per_task),
+        start_note=start_note(request.starts, request.episodes_per_task),
     )
     meta = {
         "request": request.to_dict(),
@@ -105,13 +106,30 @@ def _task_meta(t: Any) -> dict[str, Any]:
     }
 
 
-def start_note(episodes_per_task: int) -> str:
+#: The card's settings row for each kind of start.
+START_WORDS = {
+    "sampler": "LIBERO's placement sampler, demonstration seeds (no stored init state)",
+    "stored": "LIBERO's stored init states (the paper's evaluation starts), then the sampler",
+}
+
+
+def start_note(starts: str, episodes_per_task: int) -> str:
     """Where the card says the episodes started."""
+    if starts == "sampler":
+        return (
+            "Every episode starts from a placement drawn by LIBERO's own sampler for its task, seeded from the "
+            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1). No episode "
+            "starts from LIBERO's 50 stored init states, which the paper's evaluation uses, and libero-bench draws "
+            "its held-out evaluation placements from another seed stream: a policy trained on this dataset is "
+            "evaluated on starts it never saw."
+        )
     stored = min(episodes_per_task, STORED_INITS)
     note = (
-        f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k); "
+        f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init "
+        "state k), the states the paper's evaluation starts from: a policy evaluated on them has seen its starts "
+        "in training. "
         + (
-            "further episodes start from placements drawn by LIBERO's own sampler for that task, seeded."
+            "Further episodes start from placements drawn by LIBERO's own sampler for that task, seeded."
             if episodes_per_task > STORED_INITS
             else ""
         )
@@ -183,12 +201,12 @@ def suite_card(
         "episodes per task": str(episodes_per_task),
         "image size": f"{image_size}×{image_size}",
         "seed": str(seed),
+        "starts": START_WORDS[request.starts],
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         **{f"version: {k}": v for k, v in versions().items()},
         **{f"expert report: {k}": v for k, v in (measured_by or {}).items()},
     }
-    stored = min(episodes_per_task, STORED_INITS)
     by = ", ".join(f"{k} {v}" for k, v in (measured_by or {}).items())
     return render_card(
         title=f"libero-data · {suite.name}",
@@ -208,7 +226,7 @@ def suite_card(
         image_size=image_size,
         sim_state_width=sim_state_width(request),
         settings=settings,
-        start_note=f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init state k).",
+        start_note=start_note(request.starts, episodes_per_task),
         expert_note=(
             "Here: successes over the first attempts from the stored init states, as measured by the expert report"
             + (f" ({by})." if by else ".")

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_data.pipeline.request import STORED_INITS, GenerateRequest, Slot
+from libero_data.pipeline.request import GenerateRequest, Slot
 from libero_data.runtime.files import load_record, save_record
 from libero_data.runtime.jobs import WorkerCache, WorkerContext
 from libero_data.seeding import demo_key, episode_seeds
@@ -85,8 +85,9 @@ def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot
         reset_seed, expert_seed = episode_seeds(
             request.seed, demo_key(task.suite, task.name, slot.k), attempt
         )
-        if stored is not None and slot.k < min(STORED_INITS, len(stored)):
-            init_index, init = slot.k, stored[slot.k]
+        index = request.stored_start(slot.k, 0 if stored is None else len(stored))
+        if index is not None and stored is not None:
+            init_index, init = index, stored[index]
         else:
             init_index, init = -1, None  # LIBERO's own placement sampler, from reset_seed
         episode = expert.run(init, reset_seed=reset_seed, seed=expert_seed)

@@ -24,7 +24,13 @@ from pathlib import Path
 
 from libero_data.errors import FolderError
 from libero_data.pipeline.episodes import EpisodeDone, EpisodeJob, make_episodes, search_path, shard_path
-from libero_data.pipeline.request import GenerateRequest, resolve_request, sim_state_width, slots_of
+from libero_data.pipeline.request import (
+    LEGACY_REQUEST,
+    GenerateRequest,
+    resolve_request,
+    sim_state_width,
+    slots_of,
+)
 from libero_data.runtime.files import load_record, write_json
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder
 from libero_data.runtime.jobs import Executor, JobRunner
@@ -222,7 +228,7 @@ def generate(
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     _check_out_dir(out, folder)
     with folder.locked(owner=out):
-        folder.claim(request.to_dict(), name="request.json", owner=out)
+        folder.claim(request.to_dict(), name="request.json", owner=out, legacy=LEGACY_REQUEST)
         recover(out, folder.path("publish.json"))
         folder.clean(*LEFTOVERS)
         width_file = folder.path("sim_state_width.json")

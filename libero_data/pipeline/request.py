@@ -13,8 +13,15 @@ from pathlib import Path
 from libero_data.config import Config
 from libero_data.errors import InputError
 
-#: LIBERO's stored init states per task; episode k < 50 of a task starts from init state k.
+#: LIBERO's stored init states per task; with ``starts="stored"``, episode k < 50 of a task
+#: starts from init state k.
 STORED_INITS = 50
+#: Where demonstrations start: placements drawn by LIBERO's sampler from the demonstration seed
+#: stream (``sampler``: evaluation never uses them), or LIBERO's stored init states (``stored``:
+#: the ones the paper's evaluation uses) and the sampler beyond the 50th episode.
+STARTS = ("sampler", "stored")
+#: What requests made before ``starts`` existed did (read from their saved ``request.json``).
+LEGACY_REQUEST = {"starts": "stored"}
 
 
 @dataclass(frozen=True)
@@ -28,6 +35,7 @@ class GenerateRequest(Config):
     seed: int = 0
     max_attempts: int = 8
     repo_id: str = ""
+    starts: str = "sampler"
 
     def __post_init__(self) -> None:
         if self.episodes_per_task < 1:
@@ -43,6 +51,14 @@ class GenerateRequest(Config):
             )
         if not self.tasks:
             raise InputError("no tasks selected", field="tasks")
+        if self.starts not in STARTS:
+            raise InputError(f"starts must be {' or '.join(STARTS)}, got {self.starts!r}", field="starts")
+
+    def stored_start(self, k: int, stored: int) -> int | None:
+        """The stored init state episode ``k`` starts from, or None (LIBERO's sampler)."""
+        if self.starts == "stored" and k < min(STORED_INITS, stored):
+            return k
+        return None
 
 
 @dataclass(frozen=True)
@@ -67,6 +83,7 @@ def resolve_request(
     seed: int = 0,
     max_attempts: int = 8,
     repo_id: str | None = None,
+    starts: str = "sampler",
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
     from libero_data.tasks import get_suite
@@ -87,6 +104,7 @@ def resolve_request(
         seed=seed,
         max_attempts=max_attempts,
         repo_id=repo_id or f"libero-data/{s.name}",
+        starts=starts,
     )
 
 

@@ -63,17 +63,19 @@ class WorkFolder:
         ignore: Iterable[str] = (),
         owner: Path | None = None,
         advice: str = "use the same command to continue it, or another output folder",
+        legacy: Mapping[str, Any] | None = None,
     ) -> dict[str, Any] | None:
         """Record ``settings`` as the folder's, or check them against those recorded.
 
         Returns the recorded settings (None on first use). Raises :class:`SettingsChanged`
-        naming the keys that differ (``ignore`` lists keys that may change between runs).
+        naming the keys that differ (``ignore`` lists keys that may change between runs;
+        ``legacy`` gives the value of a key that folders made before it existed implied).
         """
         path = self.root / name
         if not path.is_file():
             write_json(path, dict(settings), newline=False)
             return None
-        saved = json.loads(path.read_text())
+        saved = {**(legacy or {}), **json.loads(path.read_text())}
         changed = changed_keys(saved, settings, ignore)
         if changed:
             raise SettingsChanged(

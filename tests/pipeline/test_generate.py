@@ -63,6 +63,8 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
         "(Turnon flat_stove_1)",
         "version: mujoco",
         "| seed | 3 |",
+        "| starts | LIBERO's placement sampler, demonstration seeds (no stored init state) |",
+        "No episode starts from LIBERO's 50 stored init states",
     ):
         assert needle in text
     meta = json.loads((tiny_dataset / "meta" / "libero.json").read_text())
@@ -81,7 +83,9 @@ def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
     ]
     assert [r["episode_index"] for r in rows] == [0, 1]
     assert [r["task_name"] for r in rows] == ["open_the_middle_drawer_of_the_cabinet", "turn_on_the_stove"]
-    assert all(r["success"] and r["init_index"] == 0 for r in rows)
+    # Demonstrations start from LIBERO's sampler (seeded), never from a stored init state.
+    assert all(r["success"] and r["init_index"] == -1 for r in rows)
+    assert len({r["reset_seed"] for r in rows}) == len(rows)
     from libero_data.provenance import expert_code
 
     assert {r["expert_code"] for r in rows} == {expert_code()}

@@ -1,0 +1,44 @@
+"""What ``generate`` is asked for: where episodes start, checked settings, old folders."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from libero_data.errors import InputError, SettingsChanged
+from libero_data.pipeline.describe import start_note
+from libero_data.pipeline.request import LEGACY_REQUEST, GenerateRequest
+from libero_data.runtime.folder import WorkFolder
+
+
+def test_demonstrations_start_from_the_sampler_unless_stored_starts_are_asked_for() -> None:
+    default = GenerateRequest("libero_goal", (0,))
+    assert default.starts == "sampler"
+    assert [default.stored_start(k, 50) for k in (0, 1, 49, 50)] == [None] * 4
+    stored = GenerateRequest("libero_goal", (0,), starts="stored")
+    assert [stored.stored_start(k, 50) for k in (0, 1, 49, 50)] == [0, 1, 49, None]
+    assert stored.stored_start(12, 10) is None  # a suite folder with 10 sampled init states
+    with pytest.raises(InputError) as bad:
+        GenerateRequest("libero_goal", (0,), starts="random")
+    assert bad.value.field == "starts"
+
+
+def test_the_card_says_where_episodes_started() -> None:
+    assert "No episode starts from LIBERO's 50 stored init states" in start_note("sampler", 50)
+    assert "has seen its starts in training" in start_note("stored", 50)
+    assert "Further episodes start from placements drawn" in start_note("stored", 60)
+
+
+def test_a_dataset_begun_before_starts_existed_continues_with_stored_starts(tmp_path: Path) -> None:
+    old = GenerateRequest("libero_goal", (0,), starts="stored").to_dict()
+    del old["starts"]
+    (tmp_path / "request.json").write_text(json.dumps(old))
+    folder = WorkFolder(tmp_path, "dataset")
+    stored = GenerateRequest("libero_goal", (0,), starts="stored").to_dict()
+    assert folder.claim(stored, name="request.json", legacy=LEGACY_REQUEST) is not None
+    with pytest.raises(SettingsChanged, match=r"\(starts\)"):
+        folder.claim(
+            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=LEGACY_REQUEST
+        )
