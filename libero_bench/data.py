@@ -177,6 +177,21 @@ class DemoDataset:
             raise DatasetError(f"{self.root} holds no episodes")
         return tasks
 
+    def training_starts(self, task: DemoTask) -> tuple[set[int], set[int]] | None:
+        """Where the task's demonstrations started: the stored init state indices and the
+        sampler reset seeds; None for a dataset that does not record it (not made by libero-data)."""
+        stored: set[int] = set()
+        seeds: set[int] = set()
+        for i in task.episodes:
+            row = self.episode_meta[i]
+            if "init_index" not in row:
+                return None
+            if int(row["init_index"]) >= 0:
+                stored.add(int(row["init_index"]))
+            elif "reset_seed" in row:
+                seeds.add(int(row["reset_seed"]))
+        return stored, seeds
+
     def task(self, ref: str | int) -> DemoTask:
         """A task by name, or by its index in the suite (as ``libero-data generate --tasks``)."""
         key = str(ref).strip()

@@ -1,11 +1,15 @@
 """Evaluation rollouts in simulation, run as jobs of the runtime's job runner; every rollout is kept.
 
 One rollout: take (or build) the task's :class:`~libero_data.sim.LiberoEnv` from the worker's
-cache, reset it to a fixed start (``libero_data.seeding.rollout_start``: rollout ``r`` uses init
-state ``r mod 50`` and fixture seed ``r``, the same for every epoch and checkpoint), let the
-scene settle with ``settle`` no-op steps (LIBERO waits 10 before acting), then act with the
+cache, reset it to a fixed start, let the scene settle with ``settle`` no-op steps (LIBERO waits 10 before acting), then act with the
 policy's ``act_step`` until the task's goal holds or ``max_steps`` steps have passed. Success
 is the environment's goal predicate, as in LIBERO.
+
+Starts come in two kinds, the same for every epoch, checkpoint, run and method: *stored*
+(``libero_data.seeding.rollout_start``: rollout ``r`` from LIBERO's stored init state
+``r mod 50`` with fixture seed ``r``, the paper's protocol) and *held out* (placements LIBERO's
+sampler draws from the task's held-out seed stream, skipping any seed a demonstration of the
+task started from).
 
 Each rollout is written by the job that ran it, like a demonstration: a one-episode LeRobot
 shard with its MCAP log (:func:`libero_data.record.shard.write_frames`, tagged with task,
@@ -27,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from libero_bench.run_files import HELDOUT, STORED
 from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
 from libero_data.seeding import rollout_start
 
@@ -38,7 +43,12 @@ CAMERAS = ("agentview", "eye_in_hand")
 
 @dataclass(frozen=True)
 class EvalTask:
-    """Everything needed to roll a policy out on one task of the run."""
+    """Everything needed to roll a policy out on one task of the run.
+
+    ``heldout`` are the seeds of its held-out starts (``libero_data.seeding.heldout_starts``:
+    LIBERO's sampler places objects and fixtures from each; none is a seed a demonstration of
+    the task started from).
+    """
 
     name: str
     language: str
@@ -46,9 +56,12 @@ class EvalTask:
     env_ref: str  # a .bddl file (LiberoEnv accepts it)
     task_emb: np.ndarray = field(repr=False)
     init_states: np.ndarray | None = field(default=None, repr=False)  # (n, state_dim) or None
+    heldout: tuple[int, ...] = ()
 
-    def start(self, rollout: int) -> tuple[np.ndarray | None, int, int]:
-        """(init state, init index, fixture seed) of rollout number ``rollout``."""
+    def start(self, rollout: int, start: str = STORED) -> tuple[np.ndarray | None, int, int]:
+        """(init state, init index, seed) of rollout number ``rollout`` from a ``start`` kind."""
+        if start == HELDOUT:
+            return None, -1, self.heldout[rollout]
         stored = 0 if self.init_states is None else len(self.init_states)
         index, seed = rollout_start(rollout, stored)
         if index < 0 or self.init_states is None:
@@ -76,6 +89,7 @@ class RolloutJob:
     shard_dir: str
     rrd_path: str
     tags: Mapping[str, Any]
+    start: str = STORED
 
 
 @dataclass(frozen=True)
@@ -98,8 +112,9 @@ def make_job(
     shard_dir: str | Path,
     rrd_path: str | Path,
     tags: Mapping[str, Any],
+    start: str = STORED,
 ) -> RolloutJob:
-    init_state, init_index, env_seed = task.start(rollout)
+    init_state, init_index, env_seed = task.start(rollout, start)
     return RolloutJob(
         key=key,
         env_ref=task.env_ref,
@@ -115,7 +130,8 @@ def make_job(
         sim_state_width=sim_state_width,
         shard_dir=str(shard_dir),
         rrd_path=str(rrd_path),
-        tags={**tags, "rollout": rollout, "init_index": init_index, "env_seed": env_seed},
+        tags={**tags, "rollout": rollout, "start": start, "init_index": init_index, "env_seed": env_seed},
+        start=start,
     )
 
 

@@ -20,6 +20,11 @@ Definitions (the contract; tasks counted 1..K in the formulas, 0..K-1 in the arr
 - ``AUC_k = 1/(K-k+1) (FWT_k + sum_{tau=k+1..K} c_{tau,k})`` (for the last task, FWT_K).
 - ``fwt``, ``nbt``, ``auc``: the averages of the per-task values over the tasks.
 
+Every function takes an optional ``kept``: per task, the evaluation point whose checkpoint the
+run kept. Given, ``c_kk`` is the curve at that point instead of its maximum. Success measured
+from held-out starts uses it: the checkpoint was chosen on the stored starts, and taking the
+held-out maximum would choose again, on the held-out starts themselves.
+
 Only numpy is needed; inputs may be anything ``np.asarray`` accepts (lists, torch tensors
 on CPU).
 """
@@ -57,65 +62,76 @@ def _after(after: ArrayLike, k: int) -> FloatArray:
     return a
 
 
-def best_success(curve: ArrayLike) -> FloatArray:
-    """``c_kk`` per task: (K,)."""
-    return np.nanmax(_curve(curve), axis=1)
+Kept = ArrayLike | None
 
 
-def best_index(curve: ArrayLike) -> NDArray[np.int64]:
-    """``e*_k``: the earliest evaluation point reaching ``c_kk``, per task: (K,)."""
+def best_index(curve: ArrayLike, kept: Kept = None) -> NDArray[np.int64]:
+    """``e*_k``: the earliest evaluation point reaching ``c_kk`` (or the kept one), per task: (K,)."""
     c = _curve(curve)
+    if kept is not None:
+        index = np.asarray(kept, dtype=np.int64).reshape(-1)
+        if index.shape != (c.shape[0],) or (index < 0).any() or (index >= c.shape[1]).any():
+            raise ValueError(f"kept must give one evaluation point in 0..{c.shape[1] - 1} per task")
+        return index
     return np.nanargmax(c, axis=1).astype(np.int64)
 
 
-def held_curve(curve: ArrayLike) -> FloatArray:
+def best_success(curve: ArrayLike, kept: Kept = None) -> FloatArray:
+    """``c_kk`` per task: (K,)."""
+    c = _curve(curve)
+    return c[np.arange(c.shape[0]), best_index(c, kept)]
+
+
+def held_curve(curve: ArrayLike, kept: Kept = None) -> FloatArray:
     """The curve with every point from ``e*_k`` on set to ``c_kk``: (K, E)."""
     c = _curve(curve).copy()
-    best = np.nanmax(c, axis=1)
-    first = np.nanargmax(c, axis=1)
+    first = best_index(c, kept)
+    best = c[np.arange(c.shape[0]), first]
     for k in range(c.shape[0]):
         c[k, first[k] :] = best[k]
     return c
 
 
-def fwt_per_task(curve: ArrayLike) -> FloatArray:
+def fwt_per_task(curve: ArrayLike, kept: Kept = None) -> FloatArray:
     """``FWT_k``: (K,)."""
-    return np.nanmean(held_curve(curve), axis=1)
+    return np.nanmean(held_curve(curve, kept), axis=1)
 
 
-def nbt_per_task(curve: ArrayLike, after: ArrayLike) -> FloatArray:
+def nbt_per_task(curve: ArrayLike, after: ArrayLike, kept: Kept = None) -> FloatArray:
     """``NBT_k``: (K,), NaN for the last task."""
     c = _curve(curve)
     n = c.shape[0]
     a = _after(after, n)
-    best = np.nanmax(c, axis=1)
+    best = best_success(c, kept)
     out = np.full(n, np.nan)
     for k in range(n - 1):
         out[k] = float(np.mean(best[k] - a[k + 1 :, k]))
     return out
 
 
-def auc_per_task(curve: ArrayLike, after: ArrayLike) -> FloatArray:
+def auc_per_task(curve: ArrayLike, after: ArrayLike, kept: Kept = None) -> FloatArray:
     """``AUC_k``: (K,)."""
     c = _curve(curve)
     n = c.shape[0]
     a = _after(after, n)
-    fwt_k = fwt_per_task(c)
+    fwt_k = fwt_per_task(c, kept)
     return np.array([(fwt_k[k] + a[k + 1 :, k].sum()) / (n - k) for k in range(n)])
 
 
-def fwt(curve: ArrayLike) -> float:
+def fwt(curve: ArrayLike, kept: Kept = None) -> float:
     """Forward transfer: mean of ``FWT_k`` over the K tasks."""
-    return float(np.mean(fwt_per_task(curve)))
+    return float(np.mean(fwt_per_task(curve, kept)))
 
 
-def nbt(curve: ArrayLike, after: ArrayLike, last: Literal["exclude", "zero"] = "exclude") -> float:
+def nbt(
+    curve: ArrayLike, after: ArrayLike, last: Literal["exclude", "zero"] = "exclude", kept: Kept = None
+) -> float:
     """Negative backward transfer (lower is better; forgetting is positive).
 
     ``last="exclude"`` averages over the first K-1 tasks (NaN when K = 1); ``"zero"``
     counts the last task as 0 and averages over all K.
     """
-    per_task = nbt_per_task(curve, after)
+    per_task = nbt_per_task(curve, after, kept)
     if last == "zero":
         return float(np.mean(np.nan_to_num(per_task, nan=0.0)))
     if last != "exclude":
@@ -124,9 +140,9 @@ def nbt(curve: ArrayLike, after: ArrayLike, last: Literal["exclude", "zero"] = "
     return float(np.mean(defined)) if defined.size else math.nan
 
 
-def auc(curve: ArrayLike, after: ArrayLike) -> float:
+def auc(curve: ArrayLike, after: ArrayLike, kept: Kept = None) -> float:
     """Area under the success curve: mean of ``AUC_k`` over the K tasks."""
-    return float(np.mean(auc_per_task(curve, after)))
+    return float(np.mean(auc_per_task(curve, after, kept)))
 
 
 @dataclass(frozen=True)
@@ -141,9 +157,9 @@ class LifelongScores:
         return {"fwt": self.fwt, "nbt": self.nbt, "auc": self.auc}
 
 
-def scores(curve: ArrayLike, after: ArrayLike) -> LifelongScores:
+def scores(curve: ArrayLike, after: ArrayLike, kept: Kept = None) -> LifelongScores:
     """FWT, NBT (last task excluded) and AUC of one run."""
-    return LifelongScores(fwt(curve), nbt(curve, after), auc(curve, after))
+    return LifelongScores(fwt(curve, kept), nbt(curve, after, kept=kept), auc(curve, after, kept))
 
 
 def mean_and_stderr(values: Sequence[float] | ArrayLike) -> tuple[float, float]:

@@ -137,6 +137,12 @@ class RunPlan:
             "preset": self.preset.to_dict(),
             "seed": self.seed,
             "init_checkpoint": str(req.init_checkpoint.resolve()) if req.init_checkpoint else None,
+            "evaluation": {
+                "stored_rollouts": self.preset.eval_rollouts,
+                "heldout_rollouts": self.preset.eval_heldout,
+                "heldout_seeds": "libero_data.seeding.heldout_starts(task name, n, avoid=its demonstrations' seeds)",
+                "training_starts": start_overlap(self.source, self.tasks, self.preset),
+            },
             "runtime": {
                 "device": options.device,
                 "workers": options.workers,
@@ -210,11 +216,15 @@ def check_out_folder(out: Path) -> None:
         raise FolderError(f"{out} is not empty and is not a libero-bench run; choose a new run folder")
 
 
-def resolve_eval_task(source: DemoDataset, task: DemoTask, position: int, task_emb: np.ndarray) -> EvalTask:
+def resolve_eval_task(
+    source: DemoDataset, task: DemoTask, position: int, task_emb: np.ndarray, heldout: int = 0
+) -> EvalTask:
     """How to simulate a dataset task: LIBERO's BDDL and stored init states when the task is
-    in the registry, else the BDDL stored with the dataset (objects placed from seeds)."""
+    in the registry, else the BDDL stored with the dataset (objects placed from seeds); and
+    ``heldout`` held-out starts none of its demonstrations began from."""
     from libero_bench.evaluate import EvalTask
     from libero_data.errors import LiberoDataError
+    from libero_data.seeding import heldout_starts
     from libero_data.tasks import get_suite
 
     bddl: Path | None = None
@@ -244,4 +254,43 @@ def resolve_eval_task(source: DemoDataset, task: DemoTask, position: int, task_e
         env_ref=str(bddl),
         task_emb=np.asarray(task_emb, dtype=np.float32),
         init_states=inits,
+        heldout=tuple(heldout_starts(task.name, heldout, avoid=_sampler_seeds(source, task))),
     )
+
+
+def _stored_inits(task: DemoTask) -> int:
+    """How many stored init states the evaluation draws its stored starts from (0: none)."""
+    from libero_data.errors import LiberoDataError
+    from libero_data.tasks import get_suite
+
+    try:
+        return len(get_suite(task.suite).task(task.name).init_states()) if task.suite else 0
+    except LiberoDataError:
+        return 0
+
+
+def _sampler_seeds(source: DemoDataset, task: DemoTask) -> frozenset[int]:
+    starts = source.training_starts(task)
+    return frozenset(starts[1]) if starts is not None else frozenset()
+
+
+def start_overlap(source: DemoDataset, tasks: Sequence[DemoTask], preset: TrainPreset) -> dict[str, Any]:
+    """How the run's training data began, against its evaluation starts: per task, the stored
+    init states both use (the paper's evaluation then measures starts the policy was trained
+    from), or that the dataset does not record where its episodes started."""
+    out: dict[str, Any] = {}
+    for task in tasks:
+        starts = source.training_starts(task)
+        if starts is None:
+            out[task.name] = {"recorded": False}
+            continue
+        stored, seeds = starts
+        available = _stored_inits(task)
+        evaluated = {r % available for r in range(preset.eval_rollouts)} if available else set()
+        out[task.name] = {
+            "recorded": True,
+            "demos_from_stored_inits": len(stored),
+            "demos_from_sampler": len(seeds),
+            "stored_eval_starts_trained_on": sorted(stored & evaluated),
+        }
+    return out

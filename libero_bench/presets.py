@@ -1,5 +1,6 @@
-"""Training presets as data: ``paper`` (LIBERO's protocol) and ``smoke`` (a 2-task run on
-two CPU cores in a few minutes). Saved as JSON beside every run via ``to_dict``.
+"""Training presets as data: ``paper`` (LIBERO's protocol), ``quick`` (learning shown on two
+CPU cores in about an hour per task) and ``smoke`` (a 2-task run in a few minutes that
+exercises everything and learns nothing). Saved as JSON beside every run via ``to_dict``.
 
 Values of ``paper`` come from the paper and the upstream ``libero/configs`` (train/default,
 optimizer/adam_w, scheduler/cosine_annealing, eval/default, data/default).
@@ -35,8 +36,10 @@ class TrainPreset(Config):
     policy_size: str = "paper"
     algo_size: str = "paper"
     language_encoder: str = "minilm"
-    eval_every: int = 5  # epochs; epoch 0 (before training) is evaluated too
-    eval_rollouts: int = 20
+    eval_every: int = 5  # epochs between evaluations while learning a task
+    eval_first_epoch: bool = True  # evaluate epoch 0 too (before any training)
+    eval_rollouts: int = 20  # from LIBERO's stored init states (the paper's protocol)
+    eval_heldout: int = 20  # from held-out sampler placements no demonstration started from
     eval_max_steps: int = 600
     eval_settle: int = 10  # no-op steps after reset before the policy acts (LIBERO waits too)
     keep_best: bool = True  # keep the checkpoint with the best success while learning a task
@@ -62,6 +65,9 @@ class TrainPreset(Config):
             or self.eval_settle < 0
         ):
             self._fail("eval_settle", "must be a non-negative integer")
+        self._check_non_negative("eval_heldout")
+        if not isinstance(self.eval_first_epoch, bool):
+            self._fail("eval_first_epoch", "must be true or false")
         if self.demos_per_task is not None and self.demos_per_task <= 0:
             self._fail("demos_per_task", "must be positive or None")
         if not 0 < self.lr_min <= self.lr:
@@ -104,8 +110,8 @@ class TrainPreset(Config):
         return self.replace(**changes) if changes else self
 
     def eval_epochs(self) -> list[int]:
-        """Epochs evaluated while learning a task: 0, eval_every, ..., up to ``epochs``."""
-        return list(range(0, self.epochs + 1, self.eval_every))
+        """Epochs evaluated while learning a task: (0,) eval_every, 2 eval_every, ... up to ``epochs``."""
+        return [e for e in range(0, self.epochs + 1, self.eval_every) if e > 0 or self.eval_first_epoch]
 
 
 PAPER = TrainPreset(name="paper")
@@ -120,16 +126,37 @@ SMOKE = TrainPreset(
     algo_size="smoke",
     eval_every=1,
     eval_rollouts=2,
+    eval_heldout=1,
     eval_max_steps=40,
     demos_per_task=2,
+    seed=0,
+)
+
+#: Learning shown on two CPU cores in about an hour per task (generation included): 50
+#: demonstrations per task at 64x64, the small ResNet-T, 22 epochs; one evaluation at the end
+#: (20 stored and 20 held-out starts per task, at most 300 steps: libero_object's expert needs
+#: 130-300, LeRobot's LIBERO env gives the suite 280). Measured: benchmarks/RESULTS.md.
+QUICK = TrainPreset(
+    name="quick",
+    epochs=22,
+    batch_size=8,
+    lr=3e-4,
+    image_size=64,
+    policy_size="smoke",
+    eval_every=22,
+    eval_first_epoch=False,
+    eval_rollouts=20,
+    eval_heldout=20,
+    eval_max_steps=300,
     seed=0,
 )
 
 PRESETS: Registry[TrainPreset] = Registry("training preset")
 PRESETS.register("paper")(PAPER)
 PRESETS.register("smoke")(SMOKE)
+PRESETS.register("quick")(QUICK)
 
 
 def get_preset(name: str) -> TrainPreset:
-    """``paper`` or ``smoke``."""
+    """``paper``, ``quick`` or ``smoke``."""
     return PRESETS.get(name)

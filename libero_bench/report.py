@@ -1,9 +1,11 @@
-"""Reports over finished runs: FWT / NBT / AUC (mean ± standard error over seeds), a
-success-matrix heatmap and per-task success curves (PNG), and a JSON with every number.
+"""Reports over finished runs: FWT / NBT / AUC with 95% intervals, from LIBERO's stored init
+states and from held-out placements; per-task success with n and Wilson intervals; a success
+matrix, learning curves with error bars and a metrics chart (PNG); and a JSON with every number.
 
-Runs are grouped by what they compare (algorithm, policy, preset and task list); the runs
-of a group are its seeds. A run that stopped early is reported over the tasks it finished
-(``tasks_done`` says so). Needs numpy and matplotlib only (no torch).
+Runs are grouped by what they compare (algorithm, policy, preset and task list); the runs of a
+group are its seeds. A run that stopped early is reported over the tasks it finished
+(``tasks_done`` says so). Where a run's training data began from the stored evaluation starts,
+the report says so. Needs numpy and matplotlib only (no torch).
 """
 
 from __future__ import annotations
@@ -11,82 +13,19 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from libero_bench import metrics
-from libero_bench.run_files import RunFolder, RunResults
-from libero_data.errors import InputError, MissingFileError, RunError
-from libero_data.runtime.files import write_json
+from libero_bench.intervals import METRICS, Rate, final_rates, metric_summary
+from libero_bench.run_files import HELDOUT, STARTS, STORED
+from libero_bench.runs import RunSummary, load_run
+from libero_data.errors import InputError
+from libero_data.runtime.files import write_json, write_text
 
 
-@dataclass
-class RunSummary:
-    """One run's numbers over its finished tasks."""
-
-    path: Path
-    config: dict[str, Any]
-    results: RunResults
-    tasks_done: int
-
-    @property
-    def group(self) -> tuple[str, str, str, tuple[str, ...]]:
-        c = self.config
-        return (c["algo"], c["policy"], c["preset"]["name"], tuple(t["name"] for t in c["tasks"]))
-
-    @property
-    def label(self) -> str:
-        return f"{self.config['algo']} + {self.config['policy']}"
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        k = self.tasks_done
-        curve = np.asarray(self.results.curve, dtype=np.float64)[:k]
-        after = np.asarray(self.results.after, dtype=np.float64)[:k, :k]
-        return curve, after
-
-    def scores(self) -> dict[str, Any]:
-        curve, after = self.arrays()
-        return {
-            "fwt": metrics.fwt(curve),
-            "nbt": metrics.nbt(curve, after),
-            "auc": metrics.auc(curve, after),
-            "per_task": {
-                "fwt": metrics.fwt_per_task(curve).tolist(),
-                "nbt": metrics.nbt_per_task(curve, after).tolist(),
-                "auc": metrics.auc_per_task(curve, after).tolist(),
-                "best": metrics.best_success(curve).tolist(),
-            },
-        }
-
-    def matrix(self) -> np.ndarray:
-        """``M[tau, k]``: success on task k after learning task tau (diagonal: the best while
-        learning it); NaN above the diagonal."""
-        curve, after = self.arrays()
-        m = np.full(after.shape, np.nan)
-        best = metrics.best_success(curve)
-        for tau in range(after.shape[0]):
-            m[tau, :tau] = after[tau, :tau]
-            m[tau, tau] = best[tau]
-        return m
-
-
-def load_run(path: str | Path) -> RunSummary:
-    """Read a run folder; :class:`RunError` when it is not one or has no finished task."""
-    folder = RunFolder(Path(path))
-    if not folder.root.is_dir():
-        raise MissingFileError(f"run folder {folder.root} does not exist")
-    config = folder.read_config()
-    results = folder.read_results()
-    done = results.finished_tasks
-    if done == 0:
-        raise RunError(f"run {folder.root} has not finished its first task yet")
-    return RunSummary(folder.root, config, results, done)
-
-
-def _finite(value: float) -> float | None:
+def _finite(value: float | None) -> float | None:
     return None if value is None or not math.isfinite(value) else float(value)
 
 
@@ -94,168 +33,158 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "-", text).strip("-").lower() or "run"
 
 
+def _rows(matrix: np.ndarray) -> list[list[float | None]]:
+    return [[_finite(v) for v in row] for row in matrix.tolist()]
+
+
+def _run_row(run: RunSummary) -> dict[str, Any]:
+    row: dict[str, Any] = {
+        "path": str(run.path),
+        "algo": run.config["algo"],
+        "policy": run.config["policy"],
+        "preset": run.config["preset"]["name"],
+        "seed": run.config["seed"],
+        "tasks": [t["name"] for t in run.config["tasks"]],
+        "tasks_done": run.tasks_done,
+        "complete": run.results.complete,
+        "eval_epochs": run.results.eval_epochs,
+        "best_epoch": run.results.best_epoch[: run.tasks_done],
+        "losses": run.results.losses[: run.tasks_done],
+        "notes": run.notes(),
+    }
+    for start in STARTS:
+        if not run.has(start):
+            row[start] = None
+            continue
+        curve, after = run.arrays(start)
+        row[start] = {
+            "curve": _rows(curve),
+            "after": _rows(after),
+            "final": [r.to_dict() for r in final_rates(run.results, run.tasks_done, start)],
+            **metric_summary([run.draws(start)]),
+        }
+    return row
+
+
+def _group_row(key: tuple[Any, ...], members: list[RunSummary], slug: str) -> dict[str, Any]:
+    row: dict[str, Any] = {
+        "label": members[0].label,
+        "slug": slug,
+        "algo": key[0],
+        "policy": key[1],
+        "preset": key[2],
+        "tasks": list(key[3]),
+        "runs": [str(m.path) for m in members],
+        "seeds": [m.config["seed"] for m in members],
+        "tasks_done": min(m.tasks_done for m in members),
+        "notes": [note for m in members for note in m.notes()],
+    }
+    k = row["tasks_done"]
+    for start in STARTS:
+        runs = [m for m in members if m.has(start)]
+        if not runs:
+            row[start] = None
+            continue
+        pooled = [Rate(0, 0)] * k
+        for m in runs:
+            for i, r in enumerate(final_rates(m.results, k, start)):
+                pooled[i] = Rate(pooled[i].successes + r.successes, pooled[i].n + r.n)
+        row[start] = {
+            "final": [r.to_dict() for r in pooled],
+            **metric_summary([m.draws(start) for m in runs]),
+        }
+    return row
+
+
 def summarize(runs: Sequence[RunSummary]) -> dict[str, Any]:
-    """Every number of the report: per run and per group (mean and standard error)."""
+    """Every number of the report: per run, and per group of runs (the seeds of a method)."""
     groups: dict[tuple[Any, ...], list[RunSummary]] = {}
     for run in runs:
         groups.setdefault(run.group, []).append(run)
-    run_rows = []
-    for run in runs:
-        s = run.scores()
-        run_rows.append(
-            {
-                "path": str(run.path),
-                "algo": run.config["algo"],
-                "policy": run.config["policy"],
-                "preset": run.config["preset"]["name"],
-                "seed": run.config["seed"],
-                "tasks": [t["name"] for t in run.config["tasks"]],
-                "tasks_done": run.tasks_done,
-                "complete": run.results.complete,
-                "eval_epochs": run.results.eval_epochs,
-                "curve": [[_finite(v) for v in row] for row in run.arrays()[0].tolist()],
-                "after": [[_finite(v) for v in row] for row in run.arrays()[1].tolist()],
-                "best_epoch": run.results.best_epoch[: run.tasks_done],
-                "losses": run.results.losses[: run.tasks_done],
-                "fwt": _finite(s["fwt"]),
-                "nbt": _finite(s["nbt"]),
-                "auc": _finite(s["auc"]),
-                "per_task": {k: [_finite(v) for v in vals] for k, vals in s["per_task"].items()},
-            }
-        )
     group_rows = []
     used: set[str] = set()
+    labels = [members[0].label for members in groups.values()]
     for key, members in groups.items():
-        label = members[0].label
-        slug = _slug(f"{members[0].config['algo']}-{members[0].config['policy']}")
+        row_label = members[0].label
+        if labels.count(row_label) > 1:  # the same method on other tasks: name them
+            row_label = f"{row_label} on {', '.join(key[3])}"
+        slug = _slug(row_label if labels.count(members[0].label) > 1 else members[0].label)
         if slug in used:
             slug = f"{slug}-{len(used)}"
         used.add(slug)
-        row: dict[str, Any] = {
-            "label": label,
-            "slug": slug,
-            "algo": key[0],
-            "policy": key[1],
-            "preset": key[2],
-            "tasks": list(key[3]),
-            "runs": [str(m.path) for m in members],
-            "seeds": [m.config["seed"] for m in members],
-            "tasks_done": min(m.tasks_done for m in members),
-        }
-        for metric in ("fwt", "nbt", "auc"):
-            values = [v for m in members if math.isfinite(v := float(m.scores()[metric]))]
-            if values:
-                mean, err = metrics.mean_and_stderr(values)
-                row[metric] = {"mean": _finite(mean), "stderr": _finite(err), "n": len(values)}
-            else:
-                row[metric] = {"mean": None, "stderr": None, "n": 0}
+        row = _group_row(key, members, slug)
+        row["label"] = row_label
         group_rows.append(row)
-    return {"runs": run_rows, "groups": group_rows}
+    return {"runs": [_run_row(r) for r in runs], "groups": group_rows}
 
 
-def _cell(stat: dict[str, Any]) -> str:
-    if stat["mean"] is None:
+def _cell(stat: dict[str, Any] | None) -> str:
+    if not stat or stat["mean"] is None:
         return "–"
-    err = "–" if stat["stderr"] is None else f"{stat['stderr']:.2f}"
-    return f"{stat['mean']:.2f} ± {err}"
+    if stat["low"] is None:
+        return f"{stat['mean']:.2f}"
+    return f"{stat['mean']:.2f} [{stat['low']:.2f}, {stat['high']:.2f}]"
+
+
+def _final_cell(final: list[dict[str, Any]]) -> str:
+    return ", ".join(f"{f['successes']}/{f['n']}" for f in final)
+
+
+TABLE_HEADER = [
+    "method",
+    "runs",
+    "tasks",
+    "starts",
+    "FWT (↑)",
+    "NBT (↓)",
+    "AUC (↑)",
+    "final success per task",
+]
+START_LABELS = {STORED: "stored", HELDOUT: "held out"}
 
 
 def table_rows(summary: dict[str, Any]) -> list[list[str]]:
-    """Rows of the headline table: method, runs, tasks, FWT, NBT, AUC."""
+    """Rows of the headline table: per method and kind of start, FWT, NBT, AUC with their 95%
+    intervals, and each task's final successes."""
     rows = []
     for g in summary["groups"]:
-        rows.append(
-            [
-                g["label"],
-                f"{len(g['runs'])} (seeds {', '.join(map(str, g['seeds']))})",
-                f"{g['tasks_done']}/{len(g['tasks'])}",
-                _cell(g["fwt"]),
-                _cell(g["nbt"]),
-                _cell(g["auc"]),
-            ]
-        )
+        for start in STARTS:
+            numbers = g[start]
+            if numbers is None:
+                continue
+            rows.append(
+                [
+                    g["label"],
+                    f"{len(g['runs'])} (seeds {', '.join(map(str, g['seeds']))})",
+                    f"{g['tasks_done']}/{len(g['tasks'])}",
+                    START_LABELS[start],
+                    *(_cell(numbers[m]) for m in METRICS),
+                    _final_cell(numbers["final"]),
+                ]
+            )
     return rows
-
-
-TABLE_HEADER = ["method", "runs", "tasks", "FWT (↑)", "NBT (↓)", "AUC (↑)"]
 
 
 def markdown_table(summary: dict[str, Any]) -> str:
     lines = ["| " + " | ".join(TABLE_HEADER) + " |", "|" + "---|" * len(TABLE_HEADER)]
     lines += ["| " + " | ".join(row) + " |" for row in table_rows(summary)]
-    return "\n".join(lines) + "\n"
-
-
-def _nanmean(stack: np.ndarray) -> np.ndarray:
-    """Mean over the first axis ignoring NaN; NaN where nothing was measured (no warning)."""
-    counts = np.sum(np.isfinite(stack), axis=0)
-    sums = np.nansum(stack, axis=0)
-    return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
-
-
-def _plots(runs: Sequence[RunSummary], group: dict[str, Any], out: Path) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    members = [r for r in runs if str(r.path) in group["runs"]]
-    k = group["tasks_done"]
-    names = group["tasks"][:k]
-    matrices = np.stack([m.matrix()[:k, :k] for m in members])
-    mean_matrix = _nanmean(matrices)
-    written = []
-
-    fig, ax = plt.subplots(figsize=(1.0 + 0.6 * k, 0.8 + 0.6 * k), dpi=120)
-    shown = np.ma.masked_invalid(mean_matrix)
-    image = ax.imshow(shown, vmin=0.0, vmax=1.0, cmap="viridis")
-    for tau in range(k):
-        for j in range(tau + 1):
-            value = mean_matrix[tau, j]
-            if math.isfinite(value):
-                ax.text(
-                    j,
-                    tau,
-                    f"{value:.2f}",
-                    ha="center",
-                    va="center",
-                    fontsize=7,
-                    color="w" if value < 0.6 else "k",
-                )
-    ax.set_xticks(range(k), [str(i) for i in range(k)])
-    ax.set_yticks(range(k), [str(i) for i in range(k)])
-    ax.set_xlabel("task evaluated")
-    ax.set_ylabel("after learning task")
-    ax.set_title(f"{group['label']}: success", fontsize=9)
-    fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
-    fig.tight_layout()
-    path = out / f"{group['slug']}_success_matrix.png"
-    fig.savefig(path)
-    plt.close(fig)
-    written.append(path)
-
-    epochs = np.asarray(members[0].results.eval_epochs)
-    curves = np.stack([m.arrays()[0][:k] for m in members])  # (runs, K, E)
-    fig, ax = plt.subplots(figsize=(6, 3.5), dpi=120)
-    for task in range(curves.shape[1]):
-        mean = _nanmean(curves[:, task, :])
-        ax.plot(epochs[: mean.shape[0]], mean, marker="o", label=f"{task}: {names[task]}"[:48])
-    ax.set_ylim(-0.05, 1.05)
-    ax.set_xlabel("epoch")
-    ax.set_ylabel("success rate")
-    ax.set_title(f"{group['label']}: success while learning each task", fontsize=9)
-    ax.legend(fontsize=6, loc="best")
-    fig.tight_layout()
-    path = out / f"{group['slug']}_success_curves.png"
-    fig.savefig(path)
-    plt.close(fig)
-    written.append(path)
-    return written
+    text = "\n".join(lines) + "\n"
+    text += (
+        "\nIntervals: 95%, bootstrap over rollouts (over runs and rollouts where a method has several). "
+        "Stored: LIBERO's stored init states (the paper's protocol); held out: placements no demonstration "
+        "started from, which took no part in choosing checkpoints. Final success: the last checkpoint on each task.\n"
+    )
+    notes = [n for g in summary["groups"] for n in g["notes"]]
+    if notes:
+        text += "\n" + "\n".join(f"- note: {n}" for n in notes) + "\n"
+    return text
 
 
 def write_report(run_paths: Sequence[str | Path], out: str | Path) -> dict[str, Any]:
     """Write ``report.json``, ``report.md`` and the PNGs into ``out``; returns the summary
     (with ``files``: what was written)."""
+    from libero_bench.report_plots import group_plots
+
     if not run_paths:
         raise InputError("give at least one run folder", field="runs")
     runs = [load_run(p) for p in run_paths]
@@ -264,9 +193,9 @@ def write_report(run_paths: Sequence[str | Path], out: str | Path) -> dict[str, 
     summary = summarize(runs)
     files = []
     for group in summary["groups"]:
-        files.extend(_plots(runs, group, out))
-    (out / "report.md").write_text("# libero-bench report\n\n" + markdown_table(summary))
-    files.append(out / "report.md")
+        members = [r for r in runs if str(r.path) in group["runs"]]
+        files.extend(group_plots(members, group, out))
+    files.append(write_text(out / "report.md", "# libero-bench report\n\n" + markdown_table(summary)))
     summary["files"] = [str(p) for p in [*files, out / "report.json"]]
     write_json(out / "report.json", summary)
     return summary

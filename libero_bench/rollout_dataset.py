@@ -7,6 +7,7 @@ rollout-key order, with the card below. ``datasets.load_dataset`` reads the resu
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,6 +28,10 @@ tags:
 - LIBERO
 - libero-bench
 - policy-rollouts
+dataset_info:
+  splits:
+  - name: train
+    num_examples: {frames}
 configs:
 - config_name: default
   data_files: data/*/*.parquet
@@ -72,6 +77,7 @@ def build_rollout_dataset(
         seed=run_meta.get("seed", ""),
         episodes=len(shards),
         tasks=len(bddl),
+        frames=sum(int(json.loads((s / "episode.json").read_text())["length"]) for s in shards),
     )
     from libero_data.record.shard import quiet_datasets
 

@@ -1,10 +1,10 @@
 """Evaluation rounds of a run: which rollouts a round runs, running them, and what it records.
 
-A round rolls the current policy out on some of the run's tasks (``eval_rollouts`` each, from
-fixed starts) in one phase: while learning a task (``learning``, at an epoch), after PackNet's
+A round rolls the current policy out on some of the run's tasks (``eval_rollouts`` each from
+LIBERO's stored init states and ``eval_heldout`` from held-out placements) in one phase: while learning a task (``learning``, at an epoch), after PackNet's
 pruning (``pruned``), or with the checkpoint kept after a later task (``after``). Every rollout
 is stored (:mod:`libero_bench.evaluate`) and listed in ``results.rollouts``; the round returns
-each task's success rate.
+each task's success rate from each kind of start.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 
 from libero_bench import evaluate
 from libero_bench.plan import RunPlan, resolve_eval_task
-from libero_bench.run_files import LEARNING, RunFolder, RunResults, rollout_key
+from libero_bench.run_files import HELDOUT, LEARNING, STARTS, STORED, RunFolder, RunResults, rollout_key
 
 if TYPE_CHECKING:
     from libero_bench.algos import Algo
@@ -44,7 +44,8 @@ class EvaluationRounds:
         if self._eval_tasks is None:
             plan = self.plan
             self._eval_tasks = [
-                resolve_eval_task(plan.source, t, i, plan.task_embs[i]) for i, t in enumerate(plan.tasks)
+                resolve_eval_task(plan.source, t, i, plan.task_embs[i], heldout=plan.preset.eval_heldout)
+                for i, t in enumerate(plan.tasks)
             ]
         return self._eval_tasks
 
@@ -55,9 +56,10 @@ class EvaluationRounds:
         p = self.plan.preset
         tasks = self.eval_tasks()
         jobs = []
-        for pos in group:
-            for r in range(p.eval_rollouts):
-                key = rollout_key(learned_after, phase, pos, r, epoch)
+        counts = {STORED: p.eval_rollouts, HELDOUT: p.eval_heldout}
+        for pos, start in ((pos, start) for pos in group for start in STARTS):
+            for r in range(counts[start]):
+                key = rollout_key(learned_after, phase, pos, r, epoch, start)
                 jobs.append(
                     evaluate.make_job(
                         tasks[pos],
@@ -79,6 +81,7 @@ class EvaluationRounds:
                             "algo": self.plan.request.algo,
                             "policy": self.plan.request.policy,
                         },
+                        start=start,
                     )
                 )
         return jobs
@@ -116,16 +119,16 @@ class EvaluationRounds:
         phase: str,
         learned_after: int,
         epoch: int | None,
-    ) -> list[float]:
+    ) -> dict[str, list[float]]:
         """Roll out each task of ``positions``; records every rollout in ``results`` and
-        returns the tasks' success rates. An algorithm with a per-task view (PackNet's masks)
-        is evaluated task by task."""
+        returns the tasks' success rates by kind of start (NaN where it ran none). An
+        algorithm with a per-task view (PackNet's masks) is evaluated task by task."""
         from libero_bench.algos import Algo as BaseAlgo
 
         names = [t.name for t in self.eval_tasks()]
         per_task_view = type(algo).set_eval_task is not BaseAlgo.set_eval_task
         groups = [[pos] for pos in positions] if per_task_view else [list(positions)]
-        rates: dict[int, float] = {}
+        rates: dict[str, dict[int, float]] = {start: {} for start in STARTS}
         where = f"epoch {epoch}" if phase == LEARNING else phase
         for group in groups:
             jobs = self.jobs(group, phase=phase, learned_after=learned_after, epoch=epoch)
@@ -138,13 +141,16 @@ class EvaluationRounds:
                 if per_task_view:
                     algo.set_eval_task(None)
             _record(results, jobs, by_key, phase=phase, learned_after=learned_after, epoch=epoch)
-            for pos in group:
-                rates[pos] = float(
-                    np.mean([by_key[j.key].success for j in jobs if j.tags["task_position"] == pos])
-                )
-                self.observer.eval_end(f"{names[pos]} ({where})", rates[pos])
-                logger.info("%s (%s): success %.2f", names[pos], where, rates[pos])
-        return [rates[pos] for pos in positions]
+            for pos, start in ((pos, start) for pos in group for start in STARTS):
+                wins = [
+                    by_key[j.key].success for j in jobs if j.tags["task_position"] == pos and j.start == start
+                ]
+                rates[start][pos] = float(np.mean(wins)) if wins else float("nan")
+                if wins:
+                    text = f"{names[pos]} ({where}, {start} starts)"
+                    self.observer.eval_end(text, rates[start][pos])
+                    logger.info("%s: success %.2f of %d", text, rates[start][pos], len(wins))
+        return {start: [rates[start][pos] for pos in positions] for start in STARTS}
 
 
 def _record(
@@ -169,6 +175,7 @@ def _record(
                 "phase": phase,
                 "epoch": epoch,
                 "rollout": job.tags["rollout"],
+                "start": job.start,
                 "init_index": job.init_index,
                 "env_seed": job.env_seed,
                 "success": o.success,

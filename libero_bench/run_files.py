@@ -35,10 +35,17 @@ WORK = ".work"
 RUN_FORMAT = "libero-bench-run/1"
 
 LEARNING, PRUNED, AFTER = "learning", "pruned", "after"
+#: Where evaluation rollouts start: LIBERO's stored init states (the paper's protocol), or
+#: held-out sampler placements no demonstration started from (``libero_data.seeding``).
+STORED, HELDOUT = "stored", "heldout"
+STARTS = (STORED, HELDOUT)
 
 
-def rollout_key(learned_after: int, phase: str, task: int, rollout: int, epoch: int | None = None) -> str:
-    """A rollout's name; names sort in the order the rollouts are run."""
+def rollout_key(
+    learned_after: int, phase: str, task: int, rollout: int, epoch: int | None = None, start: str = STORED
+) -> str:
+    """A rollout's name (``r`` for a stored start, ``h`` for a held-out one); names sort by
+    stage, then task, then kind of start."""
     if phase == LEARNING:
         if epoch is None:
             raise ValueError("learning-phase rollouts need an epoch")
@@ -49,7 +56,9 @@ def rollout_key(learned_after: int, phase: str, task: int, rollout: int, epoch: 
         stage = "z"
     else:
         raise ValueError(f"unknown evaluation phase {phase!r}")
-    return f"k{learned_after:03d}-{stage}-t{task:03d}-r{rollout:03d}"
+    if start not in STARTS:
+        raise ValueError(f"unknown kind of start {start!r}")
+    return f"k{learned_after:03d}-{stage}-t{task:03d}-{'r' if start == STORED else 'h'}{rollout:03d}"
 
 
 def _nan_to_none(rows: list[list[float]]) -> list[list[float | None]]:
@@ -64,7 +73,9 @@ def _none_to_nan(rows: list[list[Any]]) -> list[list[float]]:
 
 @dataclass
 class RunResults:
-    """What a run measured; ``curve[k][e]`` and ``after[tau][k]`` as in :mod:`metrics`.
+    """What a run measured; ``curve[k][e]`` and ``after[tau][k]`` as in :mod:`metrics`, from
+    LIBERO's stored init states (the paper's protocol), and the same from held-out placements
+    (``curve_heldout``, ``after_heldout``, ``pruned_heldout``; NaN where none were run).
 
     ``stage[k]`` is ``""`` (not started), ``"trained"`` (checkpoint saved, earlier tasks not
     yet re-evaluated) or ``"done"``.
@@ -81,6 +92,44 @@ class RunResults:
     stage: list[str]
     rollouts: list[dict[str, Any]] = field(default_factory=list)
     complete: bool = False
+    curve_heldout: list[list[float]] = field(default_factory=list)
+    after_heldout: list[list[float]] = field(default_factory=list)
+    pruned_heldout: list[float | None] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        k, e = len(self.tasks), len(self.eval_epochs)
+        if not self.curve_heldout:  # results written before held-out starts existed
+            self.curve_heldout = [[math.nan] * e for _ in range(k)]
+        if not self.after_heldout:
+            self.after_heldout = [[math.nan] * k for _ in range(k)]
+        if not self.pruned_heldout:
+            self.pruned_heldout = [None] * k
+
+    def kept_index(self, task: int) -> int:
+        """The evaluation point whose checkpoint the run kept for ``task`` (its best epoch;
+        else the last one measured)."""
+        epoch = self.best_epoch[task]
+        if epoch is not None and epoch in self.eval_epochs:
+            return self.eval_epochs.index(epoch)
+        measured = [e for e, v in enumerate(self.curve[task]) if not math.isnan(v)]
+        return measured[-1] if measured else len(self.eval_epochs) - 1
+
+    def kept_success(self, task: int, start: str) -> float:
+        """The success of the kept checkpoint on the task it learned: the best of the curve on
+        stored starts (the paper's ``c_kk``); on held-out starts, the value at the kept point."""
+        if start == STORED:
+            measured = [v for v in self.curve[task] if not math.isnan(v)]
+            return max(measured) if measured else math.nan
+        return self.curve_heldout[task][self.kept_index(task)]
+
+    def curve_of(self, start: str) -> list[list[float]]:
+        return self.curve if start == STORED else self.curve_heldout
+
+    def after_of(self, start: str) -> list[list[float]]:
+        return self.after if start == STORED else self.after_heldout
+
+    def pruned_of(self, start: str) -> list[float | None]:
+        return self.pruned if start == STORED else self.pruned_heldout
 
     @classmethod
     def empty(cls, tasks: list[dict[str, Any]], eval_epochs: list[int]) -> RunResults:
@@ -120,6 +169,9 @@ class RunResults:
             "stage": self.stage,
             "rollouts": self.rollouts,
             "complete": self.complete,
+            "curve_heldout": _nan_to_none(self.curve_heldout),
+            "after_heldout": _nan_to_none(self.after_heldout),
+            "pruned_heldout": self.pruned_heldout,
         }
 
     @classmethod
@@ -136,6 +188,9 @@ class RunResults:
             stage=list(data["stage"]),
             rollouts=list(data.get("rollouts", [])),
             complete=bool(data.get("complete", False)),
+            curve_heldout=_none_to_nan(data.get("curve_heldout", [])),
+            after_heldout=_none_to_nan(data.get("after_heldout", [])),
+            pruned_heldout=list(data.get("pruned_heldout", [])),
         )
 
 

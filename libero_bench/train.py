@@ -50,7 +50,7 @@ from libero_bench.plan import (
     plan_run,
 )
 from libero_bench.rounds import EvaluationRounds
-from libero_bench.run_files import AFTER, LEARNING, PRUNED, RunFolder, RunResults
+from libero_bench.run_files import AFTER, LEARNING, PRUNED, STARTS, STORED, RunFolder, RunResults
 from libero_data.errors import SettingsChanged
 from libero_data.runtime.files import write_json
 from libero_data.runtime.folder import changed_keys
@@ -232,8 +232,8 @@ class Trainer:
                 rates = self.rounds.evaluate(
                     results, algo, policy, list(range(tau)), phase=AFTER, learned_after=tau, epoch=None
                 )
-                for k, rate in enumerate(rates):
-                    results.after[tau][k] = rate
+                for kind, values in rates.items():
+                    results.after_of(kind)[tau][:tau] = values
             results.stage[tau] = "done"
             self._write_results(results)
 
@@ -242,15 +242,17 @@ class Trainer:
         algo.start_task(tau, policy)
         loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, LOADER))
         best = self._epochs(results, policy, algo, loader, [tau], learned_after=tau)
-        results.after[tau][tau] = max(v for v in results.curve[tau] if not math.isnan(v))
+        for start in STARTS:  # the kept checkpoint's success on the task it learned
+            results.after_of(start)[tau][tau] = results.kept_success(tau, start)
         factory_loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, END_TASK_LOADER))
         algo.end_task(tau, lambda: iter(factory_loader))
         if algo.post_task_epochs > 0:
             # the pruned network before fine-tuning (PackNet); not part of the learning curve
-            (rate,) = self.rounds.evaluate(
+            pruned = self.rounds.evaluate(
                 results, algo, policy, [tau], phase=PRUNED, learned_after=tau, epoch=None
             )
-            results.pruned[tau] = rate
+            for start, (rate,) in pruned.items():
+                results.pruned_of(start)[tau] = None if math.isnan(rate) else rate
             results.post_losses[tau] = self._post_task(policy, algo, loader, tau)
         logger.info("task %d kept the weights of epoch %s", tau, best)
         self._save_checkpoint(tau, "trained", policy, algo)
@@ -299,9 +301,12 @@ class Trainer:
                 rates = self.rounds.evaluate(
                     results, algo, policy, positions, phase=LEARNING, learned_after=learned_after, epoch=epoch
                 )
-                for pos, rate in zip(positions, rates, strict=True):
-                    results.curve[pos][e] = rate
-                score = float(np.mean(rates))
+                for start, values in rates.items():
+                    for pos, rate in zip(positions, values, strict=True):
+                        results.curve_of(start)[pos][e] = rate
+                # Checkpoints are chosen on the stored starts (LIBERO's protocol); held-out
+                # starts take no part in the choice, so their success stays an unbiased estimate.
+                score = float(np.mean(rates[STORED]))
                 if p.keep_best and score > best_rate:  # the earliest best, as upstream LIBERO
                     best_rate, best_epoch = score, epoch
                     best_state = {k: v.detach().clone() for k, v in policy.state_dict().items()}
@@ -347,7 +352,8 @@ class Trainer:
             kept = self.eval_epochs.index(best) if best is not None else len(self.eval_epochs) - 1
             for tau in range(self.K):
                 for k in range(self.K):
-                    results.after[tau][k] = results.curve[k][kept]
+                    for kind in STARTS:
+                        results.after_of(kind)[tau][k] = results.curve_of(kind)[k][kept]
         results.stage = ["done"] * self.K
         self._write_results(results)
 

@@ -16,7 +16,8 @@ procedural sampling                    ``sampler_rng(seed)``
 robustness variant                     ``variant_rng(seed, task index, kind position)``
 benchmark run: weights, task, loaders  ``run_seed(seed, task position, stream)``, streams below
 a loader's epoch                       ``loader_epoch_seed(loader seed, epoch)``
-evaluation rollout ``r``               ``rollout_start(r, stored init states)``
+evaluation rollout ``r``, stored start ``rollout_start(r, stored init states)``
+evaluation rollout ``r``, held out     ``heldout_starts(task key, n, avoid)[r]``
 =====================================  ============================================================
 
 An episode's two seeds are a *reset seed* (LIBERO places fixtures, and objects where no
@@ -35,6 +36,9 @@ import numpy as np
 WEIGHTS, TASK_START, LOADER, END_TASK_LOADER = 0, 1, 2, 3
 #: Offset of the expert's seeds from the starts' in ``candidate_seed``.
 CANDIDATE_EXPERT = 1000
+#: The held-out evaluation stream's tag: its seeds depend on the task only (every run of every
+#: method is evaluated from the same placements), never on a dataset's or a run's seed.
+HELDOUT_TAG = 0x4E1D0
 
 
 def stable_hash(text: str) -> int:
@@ -89,3 +93,22 @@ def rollout_start(rollout: int, stored: int) -> tuple[int, int]:
     ``stored`` init states; index -1 where there are none (objects placed from the seed).
     The same for every epoch and checkpoint, so evaluations compare like with like."""
     return (rollout % stored if stored > 0 else -1), rollout
+
+
+def heldout_seed(task_key: str, index: int) -> int:
+    """Seed ``index`` of a task's held-out evaluation stream (``task_key``: ``suite/name``)."""
+    return int(np.random.SeedSequence([HELDOUT_TAG, stable_hash(task_key), index]).generate_state(1)[0])
+
+
+def heldout_starts(task_key: str, n: int, avoid: frozenset[int] | set[int] = frozenset()) -> list[int]:
+    """The first ``n`` seeds of a task's held-out stream that are not in ``avoid`` (the reset
+    seeds its training demonstrations started from): LIBERO's sampler places the objects and
+    fixtures from each, so an evaluation never starts where a demonstration did."""
+    seeds: list[int] = []
+    index = 0
+    while len(seeds) < n:
+        seed = heldout_seed(task_key, index)
+        if seed not in avoid:
+            seeds.append(seed)
+        index += 1
+    return seeds

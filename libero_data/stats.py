@@ -50,3 +50,15 @@ def starts_needed(p: float, alpha: float, most: int = 50) -> int:
         return most
     # (the small margin keeps an exact integer, e.g. 3 for p = 0.9 and alpha = 0.001, from rounding up)
     return min(most, max(1, math.ceil(math.log(alpha) / math.log(1 - p) - 1e-9)))
+
+
+def mcnemar_exact(only_a: int, only_b: int) -> float:
+    """Two-sided exact McNemar test of paired outcomes: the p-value that two methods succeed
+    equally often, from the pairs where only A (``only_a``) or only B (``only_b``) succeeded.
+    Concordant pairs carry no information; with no discordant pair the p-value is 1."""
+    if only_a < 0 or only_b < 0:
+        raise ValueError(f"counts must not be negative, got {only_a} and {only_b}")
+    n = only_a + only_b
+    if n == 0:
+        return 1.0
+    return min(1.0, 2.0 * binomial_cdf(min(only_a, only_b), n, 0.5))

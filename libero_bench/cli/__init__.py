@@ -47,6 +47,7 @@ def orders_cmd(
 
 app.command("run")(run.run_cmd)
 app.command("report")(results.report_cmd)
+app.command("compare")(results.compare_cmd)
 app.command("replay")(results.replay_cmd)
 app.command("saliency")(saliency.saliency_cmd)
 

@@ -31,13 +31,48 @@ def report_cmd(
         Path | None, typer.Option("--out", "-o", help="Report folder; default: FIRST_RUN/report.")
     ] = None,
 ) -> None:
-    """FWT / NBT / AUC (mean ± standard error over runs), success matrix and curves (PNG), JSON."""
+    """FWT / NBT / AUC with 95% intervals, from stored and held-out starts; success matrix, curves and metrics (PNG); JSON."""
     from libero_bench.report import table_rows, write_report
 
     summary = write_report(runs, out or (runs[0] / "report"))
     print_table(table_rows(summary))
     for path in summary["files"]:
         say(f"wrote {path}")
+
+
+@user_errors
+def compare_cmd(
+    run_a: Annotated[Path, typer.Argument(help="A run folder (A).")],
+    run_b: Annotated[Path, typer.Argument(help="Another run folder (B), evaluated on the same tasks.")],
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", "-o", help="Folder for compare.json and compare.md (default: print only)."),
+    ] = None,
+) -> None:
+    """Is one run better than another? McNemar's exact test on their final checkpoints' paired outcomes.
+
+    Both runs were evaluated from the same starts (stored and held-out); each start pairs run A's
+    outcome with run B's, per task and over all tasks, for each kind of start.
+    """
+    from libero_bench.compare import compare_runs, markdown, verdict
+    from libero_data.runtime.files import write_json, write_text
+
+    result = compare_runs(run_a, run_b)
+    text = markdown(result)
+    for start in ("stored", "heldout"):
+        block = result.get(start)
+        if block is not None:
+            row = block["all"]
+            say(
+                f"{start} starts, all tasks: A {row['a']['successes']}/{row['n']}, B {row['b']['successes']}/{row['n']}; "
+                + verdict(row, "A", "B")
+            )
+    if out is not None:
+        write_json(out / "compare.json", result)
+        write_text(out / "compare.md", text)
+        say(f"wrote {out / 'compare.json'} and {out / 'compare.md'}")
+    else:
+        say(text)
 
 
 @user_errors

@@ -23,7 +23,13 @@ def run_cmd(
     out: Annotated[Path, typer.Option("--out", "-o", help="Run folder (created; an existing run resumes).")],
     algo: Annotated[str, typer.Option("--algo", help="seql, er, ewc, packnet or mtl.")] = "er",
     policy: Annotated[str, typer.Option("--policy", help="resnet_rnn, resnet_t or vit_t.")] = "resnet_t",
-    preset: Annotated[str, typer.Option("--preset", help="paper or smoke.")] = "smoke",
+    preset: Annotated[
+        str,
+        typer.Option(
+            "--preset",
+            help="paper (LIBERO's protocol), quick (learning on CPU, ~1 h per task) or smoke (a quick check).",
+        ),
+    ] = "smoke",
     tasks: Annotated[
         str | None,
         typer.Option(
@@ -106,7 +112,8 @@ def run_cmd(
     minutes = (time.perf_counter() - started) / 60
     say(f"done: {len(plan.tasks)} tasks, {len(done.rollouts)} rollouts in {out} ({minutes:.1f} min)")
     from libero_bench.cli.results import print_table
-    from libero_bench.report import load_run, summarize, table_rows
+    from libero_bench.report import summarize, table_rows
+    from libero_bench.runs import load_run
 
     print_table(table_rows(summarize([load_run(out)])))
     say(f"report with plots: libero-bench report {out}")

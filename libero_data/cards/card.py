@@ -78,3 +78,20 @@ def render_card(
         start_note=start_note,
         expert_note=expert_note,
     )
+
+
+def with_data_size(card: str, data_bytes: int) -> str:
+    """The card with its split's data size (the bytes of its parquet files) in the YAML header.
+
+    ``datasets.load_dataset(folder)`` keys its cache on the header alone (not on the files), so
+    two datasets in folders of the same name and with as many frames would read each other's
+    cache; with the size beside the frame count they do not. A card without a split is returned
+    as it is.
+    """
+    lines = card.split("\n")
+    for i, line in enumerate(lines):
+        if line.startswith("    num_examples: ") and not lines[i + 1].startswith("    num_bytes: "):
+            return "\n".join([*lines[: i + 1], f"    num_bytes: {int(data_bytes)}", *lines[i + 1 :]])
+        if line == "---" and i > 0:
+            break
+    return card

@@ -16,6 +16,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from libero_data.cards.card import with_data_size
 from libero_data.pipeline.publish import stamp
 from libero_data.provenance import compact_row
 from libero_data.record.shard import INFO_NAME, MCAP_NAME, SHARD_REPO
@@ -68,7 +69,8 @@ def build_snapshot(
     (meta / "bddl").mkdir()
     for name, text in bddl.items():
         (meta / "bddl" / f"{name}.bddl").write_text(text)
-    (out / "README.md").write_text(card)
+    data_bytes = sum(p.stat().st_size for p in (out / "data").rglob("*.parquet"))
+    (out / "README.md").write_text(with_data_size(card, data_bytes))
     stamp(out, snapshot_id)
     return episodes
 

@@ -27,10 +27,10 @@ def test_smoke_preset_is_small() -> None:
     assert s is SMOKE
     assert s.epochs <= 2 and s.eval_rollouts <= 2 and s.eval_max_steps <= 60 and s.eval_every == 1
     assert s.policy_size == "smoke" and s.algo_size == "smoke"
-    assert PRESETS.names() == ["paper", "smoke"]
+    assert PRESETS.names() == ["paper", "quick", "smoke"]
 
 
-@pytest.mark.parametrize("name", ["paper", "smoke"])
+@pytest.mark.parametrize("name", ["paper", "quick", "smoke"])
 def test_json_round_trip(name: str) -> None:
     preset = get_preset(name)
     text = json.dumps(preset.to_dict())

@@ -22,6 +22,8 @@ pytestmark = pytest.mark.sim  # needs the generated tiny dataset (no simulation 
 
 #: success rate of task k at epoch e while learning it (2 rollouts: 0, 0.5 or 1)
 CURVE = {0: [0.0, 1.0, 0.5], 1: [0.5, 0.5, 1.0]}
+#: the same from the one held-out start (its rollout 0 succeeds where the rate is >= 0.5)
+HELDOUT_CURVE = [[0.0, 1.0, 1.0], [1.0, 1.0, 1.0]]
 AFTER = 0.5
 PRUNED = 1.0
 PRESET = SMOKE.replace(epochs=2, batch_size=32, image_size=32, language_encoder="task_id")
@@ -91,6 +93,8 @@ def test_protocol(algo: str, tiny_dataset: Path, tmp_path: Path, scripted: type[
         assert results.curve == [CURVE[0], CURVE[1]]
         assert results.best_epoch == [1, 1]
         assert results.after == [[1.0, 0.5], [1.0, 0.5]]
+        assert results.curve_heldout == HELDOUT_CURVE
+        assert results.after_heldout == [[1.0, 1.0], [1.0, 1.0]]  # the kept epoch's, not the best
         assert not (tmp_path / "run" / "checkpoints" / "task_001.pt").exists()
         kept = [c["digest"] for c in scripted.calls if c["epoch"] == 1]
         assert float(policy_digest) == pytest.approx(kept[0], rel=1e-12)
@@ -99,16 +103,22 @@ def test_protocol(algo: str, tiny_dataset: Path, tmp_path: Path, scripted: type[
     assert results.best_epoch == [1, 2]  # the earliest best epoch
     assert results.after[0][0] == 1.0 and results.after[1][1] == 1.0
     assert results.after[1][0] == AFTER and math.isnan(results.after[0][1])
-    phases = [(c["phase"], c["learned_after_position"], c["task_position"]) for c in scripted.calls]
+    # From held-out starts: the curve as measured, and the kept checkpoint's value on the diagonal.
+    assert results.curve_heldout == HELDOUT_CURVE
+    assert results.after_heldout[0][0] == 1.0 and results.after_heldout[1] == [1.0, 1.0]
+    phases = [
+        (c["phase"], c["learned_after_position"], c["task_position"], c["start"]) for c in scripted.calls
+    ]
     after_calls = [p for p in phases if p[0] == "after"]
-    assert after_calls == [("after", 1, 0), ("after", 1, 0)]  # 2 rollouts of task 0 after task 1
+    # 2 rollouts of task 0 from stored starts after task 1, and 1 from a held-out start
+    assert after_calls == [("after", 1, 0, "stored"), ("after", 1, 0, "stored"), ("after", 1, 0, "heldout")]
     assert [len(loss) for loss in results.losses] == [3, 3]
     kept = next(c["digest"] for c in scripted.calls if c["epoch"] == 1 and c["task_position"] == 0)
     if algo == "packnet":
         # evaluated once more after pruning, before fine-tuning; the curve is untouched by it
         assert results.pruned == [PRUNED, PRUNED]
         assert [len(loss) for loss in results.post_losses] == [1, 1]
-        assert phases.index(("pruned", 0, 0)) < phases.index(("learning", 1, 1))
+        assert phases.index(("pruned", 0, 0, "stored")) < phases.index(("learning", 1, 1, "stored"))
         assert float(policy_digest) != pytest.approx(kept, rel=1e-9)  # pruned and fine-tuned
     else:
         assert results.pruned == [None, None]
@@ -125,11 +135,12 @@ def test_resume_after_the_checkpoint_redoes_only_the_after_task_evaluations(
     # as if killed after task 1's checkpoint, before the earlier task was evaluated again
     interrupted = dict(saved, complete=False, stage=["done", "trained"])
     interrupted["after"] = [[1.0, None], [None, 1.0]]
+    interrupted["after_heldout"] = [[1.0, None], [None, 1.0]]
     interrupted["rollouts"] = [r for r in saved["rollouts"] if r["phase"] != "after"]
     (out / "results.json").write_text(json.dumps(interrupted))
     scripted.calls = []
     again = _trainer(tiny_dataset, out, "er").run()
-    assert [c["phase"] for c in scripted.calls] == ["after", "after"]
+    assert [c["phase"] for c in scripted.calls] == ["after", "after", "after"]
     assert again.to_dict() == first.to_dict()
     # the digest of the weights used for the after-task evaluation is the saved checkpoint's
     checkpoint = torch.load(out / "checkpoints" / "task_001.pt", weights_only=False)

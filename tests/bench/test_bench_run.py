@@ -22,7 +22,8 @@ from libero_bench import metrics
 # Ray instances at once would crowd 2 cores and memory.
 pytestmark = [pytest.mark.sim, pytest.mark.xdist_group("ray")]
 
-#: The smoke preset, shortened: 2 tasks x (epochs 0, 1) x 2 rollouts + 2 after-task rollouts.
+#: The smoke preset, shortened: 2 tasks x (epochs 0, 1) x (2 stored + 1 held-out) rollouts, and
+#: 2 + 1 after-task rollouts.
 RUN_ARGS = [
     "--algo",
     "er",
@@ -92,7 +93,21 @@ def test_run_folder_and_results(bench_run: Path) -> None:
     assert np.isfinite(after[1, 0]) and math.isnan(after[0, 1])
     assert after[0, 0] == curve[0].max() and after[1, 1] == curve[1].max()
     assert len(results["losses"][0]) == 2 and all(math.isfinite(e["total"]) for e in results["losses"][0])
-    assert len(results["rollouts"]) == 2 * 2 * 2 + 2
+    assert len(results["rollouts"]) == 2 * 2 * 3 + 3
+    # Held-out starts: placements of the task's own stream, none a demonstration started from.
+    heldout = [r for r in results["rollouts"] if r["start"] == "heldout"]
+    assert len(heldout) == 5 and all(r["init_index"] == -1 for r in heldout)
+    from libero_data.seeding import heldout_starts
+
+    rows = (Path(config["data"]) / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    demo_seeds = {json.loads(line)["reset_seed"] for line in rows}
+    for r in heldout:
+        assert r["env_seed"] == heldout_starts(r["task"], 1, avoid=demo_seeds)[0]
+        assert r["env_seed"] not in demo_seeds
+    curve_heldout = np.array(results["curve_heldout"], dtype=float)
+    assert curve_heldout.shape == (2, 2) and np.isfinite(curve_heldout).all()
+    starts = config["evaluation"]["training_starts"]
+    assert all(s["recorded"] and s["stored_eval_starts_trained_on"] == [] for s in starts.values())
     for k in range(2):
         assert (bench_run / "checkpoints" / f"task_{k:03d}.pt").is_file()
 
@@ -110,13 +125,16 @@ def test_rollout_dataset_loads_and_matches_the_success_matrix(bench_run: Path) -
     rates: dict[tuple, list[bool]] = defaultdict(list)
     for e in episodes:
         assert {"task_name", "learned_after", "epoch", "run_seed", "init_index", "success"} <= set(e)
-        assert e["run_seed"] == 0 and e["init_index"] == e["rollout"]
-        rates[(e["phase"], e["learned_after_position"], e["task_position"], e["epoch"])].append(e["success"])
+        assert e["run_seed"] == 0
+        assert e["init_index"] == (e["rollout"] if e["start"] == "stored" else -1)
+        key = (e["phase"], e["learned_after_position"], e["task_position"], e["epoch"], e["start"])
+        rates[key].append(e["success"])
     epochs = results["eval_epochs"]
     for k in range(2):
         for i, epoch in enumerate(epochs):
-            assert np.mean(rates[("learning", k, k, epoch)]) == results["curve"][k][i]
-    assert np.mean(rates[("after", 1, 0, None)]) == results["after"][1][0]
+            assert np.mean(rates[("learning", k, k, epoch, "stored")]) == results["curve"][k][i]
+            assert np.mean(rates[("learning", k, k, epoch, "heldout")]) == results["curve_heldout"][k][i]
+    assert np.mean(rates[("after", 1, 0, None, "stored")]) == results["after"][1][0]
     # the rollout list in results.json and the dataset tell the same story, episode by episode
     by_key = {r["key"]: r for r in results["rollouts"]}
     assert sorted(by_key) == [e["key"] for e in episodes]
@@ -166,11 +184,19 @@ def test_report(bench_run: Path, tmp_path: Path) -> None:
     curve = np.array(results["curve"], dtype=float)
     after = np.array(results["after"], dtype=float)
     (group,) = report["groups"]
-    assert group["fwt"]["mean"] == pytest.approx(metrics.fwt(curve))
-    assert group["nbt"]["mean"] == pytest.approx(metrics.nbt(curve, after))
-    assert group["auc"]["mean"] == pytest.approx(metrics.auc(curve, after))
-    assert group["fwt"]["stderr"] == 0.0  # the same run twice
-    for name in ("er-resnet-t_success_matrix.png", "er-resnet-t_success_curves.png"):
+    stored = group["stored"]
+    assert stored["fwt"]["mean"] == pytest.approx(metrics.fwt(curve))
+    assert stored["nbt"]["mean"] == pytest.approx(metrics.nbt(curve, after))
+    assert stored["auc"]["mean"] == pytest.approx(metrics.auc(curve, after))
+    for name in ("fwt", "auc"):  # every number with its interval (the same run twice)
+        assert stored[name]["low"] <= stored[name]["mean"] <= stored[name]["high"]
+    assert [f["n"] for f in stored["final"]] == [4, 4]  # two tasks, each rollout counted twice
+    assert group["heldout"]["final"][0]["n"] == 2
+    for name in (
+        "er-resnet-t_success_matrix.png",
+        "er-resnet-t_success_curves.png",
+        "er-resnet-t_metrics.png",
+    ):
         data = (tmp_path / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 2000
     assert "| er + resnet_t |" in (tmp_path / "report.md").read_text()
@@ -180,14 +206,14 @@ def test_replay(bench_run: Path, tmp_path: Path) -> None:
     listed = bench("replay", str(bench_run), "--task", "turn_on_the_stove")
     assert listed.returncode == 0, listed.stderr
     lines = listed.stdout.strip().splitlines()
-    assert len(lines) == 4 and "k001-e000-t001-r000" in lines[0]
+    assert len(lines) == 6 and "k001-e000-t001-h000" in lines[0] and "k001-e000-t001-r000" in lines[1]
     out = tmp_path / "copy.rrd"
-    result = bench("replay", str(bench_run), "--task", "0", "--rollout", "4", "--rrd", str(out))
+    result = bench("replay", str(bench_run), "--task", "0", "--rollout", "7", "--rrd", str(out))
     assert result.returncode == 0, result.stderr
     assert out.read_bytes() == (bench_run / "rrd" / "k001-z-t000-r000.rrd").read_bytes()
     bad = bench("replay", str(bench_run), "--task", "0", "--rollout", "9")
     assert bad.returncode == 2 and bad.stderr.strip() == (
-        "error: task open_the_middle_drawer_of_the_cabinet has rollouts 0..5, not 9 (--rollout)"
+        "error: task open_the_middle_drawer_of_the_cabinet has rollouts 0..8, not 9 (--rollout)"
     )
 
 

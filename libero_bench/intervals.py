@@ -1,0 +1,183 @@
+"""Uncertainty of a run's numbers: Wilson intervals of success rates and bootstrap intervals
+of FWT, NBT and AUC.
+
+Every number of a run is a mean over rollouts: ``curve[k][e]`` over the rollouts of task k at
+evaluated epoch e, ``after[tau][k]`` over those of task k after task tau. The bootstrap draws
+each cell's rollouts again with replacement (independently per cell, as they were run),
+recomputes the metrics from the drawn matrices, and takes the 2.5th and 97.5th percentiles.
+Over several runs of one method (seeds) it first draws the runs, then the rollouts within
+each (a two-level bootstrap), so the interval covers both sources of variation.
+
+Needs numpy only. Draws come from a fixed seed: the same runs give the same intervals.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from libero_bench import metrics
+from libero_bench.run_files import AFTER, LEARNING, STORED, RunResults
+from libero_data.stats import wilson_interval
+
+#: Bootstrap draws (the percentiles of 2000 draws move by well under 0.01 between seeds).
+DRAWS = 2000
+SEED = 20240531
+METRICS = ("fwt", "nbt", "auc")
+
+
+@dataclass(frozen=True)
+class Rate:
+    """A success rate with its count and 95% Wilson interval."""
+
+    successes: int
+    n: int
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.n if self.n else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        low, high = wilson_interval(self.successes, self.n) if self.n else (math.nan, math.nan)
+        return {
+            "rate": _finite(self.rate),
+            "successes": self.successes,
+            "n": self.n,
+            "low": _finite(low),
+            "high": _finite(high),
+        }
+
+
+def _finite(value: float) -> float | None:
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def cell_outcomes(
+    results: RunResults, tasks_done: int, start: str
+) -> tuple[list[list[np.ndarray]], list[list[np.ndarray]]]:
+    """The rollout outcomes (0/1 arrays) behind every ``curve`` and ``after`` cell, from one
+    kind of start. A cell without rollouts of its own (MTL copies its kept curve into ``after``)
+    is empty."""
+    k, epochs = tasks_done, results.eval_epochs
+    curve: list[list[list[int]]] = [[[] for _ in epochs] for _ in range(k)]
+    after: list[list[list[int]]] = [[[] for _ in range(k)] for _ in range(k)]
+    for r in results.rollouts:
+        if r.get("start", STORED) != start or r["task_position"] >= k:
+            continue
+        pos = int(r["task_position"])
+        if r["phase"] == LEARNING and r["epoch"] in epochs:
+            curve[pos][epochs.index(r["epoch"])].append(int(bool(r["success"])))
+        elif r["phase"] == AFTER and int(r["learned_after"]) < k:
+            after[int(r["learned_after"])][pos].append(int(bool(r["success"])))
+    return (
+        [[np.asarray(c, dtype=np.float64) for c in row] for row in curve],
+        [[np.asarray(c, dtype=np.float64) for c in row] for row in after],
+    )
+
+
+def final_rates(results: RunResults, tasks_done: int, start: str) -> list[Rate]:
+    """Per task, the success of the last checkpoint (after the last finished task): its
+    ``after`` rollouts, or for the last task those of its kept epoch."""
+    curve, after = cell_outcomes(results, tasks_done, start)
+    last = tasks_done - 1
+    out = []
+    for k in range(tasks_done):
+        outcomes = after[last][k] if k < last and after[last][k].size else curve[k][results.kept_index(k)]
+        out.append(Rate(int(outcomes.sum()), int(outcomes.size)))
+    return out
+
+
+class RunDraws:
+    """Bootstrap draws of one run's FWT, NBT and AUC from one kind of start."""
+
+    def __init__(
+        self, results: RunResults, tasks_done: int, start: str, draws: int = DRAWS, seed: int = SEED
+    ) -> None:
+        self.results, self.k, self.start, self.draws = results, tasks_done, start, draws
+        self.rng = np.random.default_rng(seed)
+        curve_cells, after_cells = cell_outcomes(results, tasks_done, start)
+        self.point = _as_matrices(results, tasks_done, start)
+        self.curves = self._draw(curve_cells, self.point[0])  # (B, K, E)
+        self.afters = self._draw(after_cells, self.point[1])  # (B, K, K)
+        self.kept = None if start == STORED else [results.kept_index(t) for t in range(tasks_done)]
+        if not any(r.get("phase") == AFTER for r in results.rollouts):
+            # MTL: after[tau][k] is the kept curve point of task k, for every tau.
+            for t in range(tasks_done):
+                self.afters[:, :, t] = self.curves[:, t, results.kept_index(t)][:, None]
+
+    def _draw(self, cells: list[list[np.ndarray]], point: np.ndarray) -> np.ndarray:
+        out = np.repeat(point[None], self.draws, axis=0)
+        for i, row in enumerate(cells):
+            for j, outcomes in enumerate(row):
+                n = outcomes.size
+                if n:
+                    out[:, i, j] = outcomes[self.rng.integers(0, n, size=(self.draws, n))].mean(axis=1)
+        return out
+
+    def metric(self, name: str) -> np.ndarray:
+        """The metric's value in every draw: (B,) (NaN where it is undefined)."""
+        fn = _METRIC_FNS[name]
+        values = np.full(self.draws, np.nan)
+        for b in range(self.draws):
+            try:
+                values[b] = fn(self.curves[b], self.afters[b], self.kept)
+            except ValueError:  # a cell with no measurement: the metric is undefined
+                values[b] = math.nan
+        return values
+
+    def value(self, name: str) -> float:
+        try:
+            return float(_METRIC_FNS[name](self.point[0], self.point[1], self.kept))
+        except ValueError:
+            return math.nan
+
+
+def _as_matrices(results: RunResults, k: int, start: str) -> tuple[np.ndarray, np.ndarray]:
+    curve = np.asarray(results.curve_of(start), dtype=np.float64)[:k]
+    after = np.asarray(results.after_of(start), dtype=np.float64)[:k, :k]
+    return curve, after
+
+
+_METRIC_FNS: dict[str, Callable[[np.ndarray, np.ndarray, Any], float]] = {
+    "fwt": lambda c, a, kept: metrics.fwt(c, kept),
+    "nbt": lambda c, a, kept: metrics.nbt(c, a, kept=kept),
+    "auc": lambda c, a, kept: metrics.auc(c, a, kept),
+}
+
+
+def interval(values: np.ndarray) -> tuple[float, float]:
+    """The 95% percentile interval of draws (NaN where no draw is defined)."""
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return math.nan, math.nan
+    low, high = np.percentile(finite, [2.5, 97.5])
+    return float(low), float(high)
+
+
+def metric_summary(runs: Sequence[RunDraws], seed: int = SEED) -> dict[str, dict[str, Any]]:
+    """Per metric: the mean over runs and its 95% interval (over rollouts for one run; over
+    runs and rollouts for several)."""
+    rng = np.random.default_rng(seed + 1)
+    out: dict[str, dict[str, Any]] = {}
+    for name in METRICS:
+        points = np.array([r.value(name) for r in runs])
+        draws = np.stack([r.metric(name) for r in runs])  # (R, B)
+        if len(runs) > 1:
+            pick = rng.integers(0, len(runs), size=(draws.shape[1], len(runs)))  # (B, R)
+            combined = np.nanmean(draws[pick, np.arange(draws.shape[1])[:, None]], axis=1)
+        else:
+            combined = draws[0]
+        low, high = interval(combined)
+        finite = points[np.isfinite(points)]
+        out[name] = {
+            "mean": _finite(float(finite.mean())) if finite.size else None,
+            "low": _finite(low),
+            "high": _finite(high),
+            "runs": len(runs),
+            "interval": "bootstrap over rollouts" if len(runs) == 1 else "bootstrap over runs and rollouts",
+        }
+    return out

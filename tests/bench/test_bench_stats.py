@@ -1,0 +1,204 @@
+"""Numbers with their uncertainty: Wilson and bootstrap intervals in reports, and comparing two
+runs with McNemar's test, on hand-made run folders (no simulation)."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from libero_bench.compare import compare_runs
+from libero_bench.report import summarize, write_report
+from libero_bench.run_files import RUN_FORMAT, RunResults, rollout_key
+from libero_bench.runs import load_run
+from libero_data.stats import mcnemar_exact
+
+TASKS = ["pick_up_the_ketchup", "pick_up_the_milk"]
+
+
+def _fake_run(
+    root: Path,
+    *,
+    algo: str,
+    seed: int,
+    learn: list[list[int]],
+    after: list[int],
+    heldout: list[list[int]] | None = None,
+) -> Path:
+    """A finished 2-task run: ``learn[k]`` the outcomes of task k at its one evaluated epoch
+    (stored starts), ``after`` task 0's outcomes after task 1, ``heldout[k]`` held-out outcomes."""
+    from libero_data.runtime.files import write_json as write
+
+    results = RunResults.empty([{"position": i, "name": n, "language": n} for i, n in enumerate(TASKS)], [5])
+    results.best_epoch = [5, 5]
+    results.stage = ["done", "done"]
+    results.complete = True
+    rollouts = []
+
+    def add(k: int, phase: str, learned_after: int, outcomes: list[int], start: str) -> float:
+        for r, ok in enumerate(outcomes):
+            epoch = 5 if phase == "learning" else None
+            rollouts.append(
+                {
+                    "key": rollout_key(learned_after, phase, k, r, epoch, start),
+                    "task": TASKS[k],
+                    "task_position": k,
+                    "learned_after": learned_after,
+                    "phase": phase,
+                    "epoch": epoch,
+                    "rollout": r,
+                    "start": start,
+                    "init_index": r if start == "stored" else -1,
+                    "env_seed": r if start == "stored" else 1000 + r,
+                    "success": bool(ok),
+                    "steps": 10,
+                }
+            )
+        return sum(outcomes) / len(outcomes)
+
+    for k in range(2):
+        results.curve[k][0] = add(k, "learning", k, learn[k], "stored")
+        results.after[k][k] = results.curve[k][0]
+        if heldout is not None:
+            results.curve_heldout[k][0] = add(k, "learning", k, heldout[k], "heldout")
+            results.after_heldout[k][k] = results.curve_heldout[k][0]
+    results.after[1][0] = add(0, "after", 1, after, "stored")
+    if heldout is not None:
+        results.after_heldout[1][0] = add(0, "after", 1, heldout[0][::-1], "heldout")
+    results.rollouts = rollouts
+    config = {
+        "format": RUN_FORMAT,
+        "algo": algo,
+        "policy": "resnet_t",
+        "preset": {"name": "quick"},
+        "seed": seed,
+        "tasks": [{"position": i, "name": n, "language": n} for i, n in enumerate(TASKS)],
+        "evaluation": {
+            "training_starts": {
+                TASKS[0]: {"recorded": True, "stored_eval_starts_trained_on": []},
+                TASKS[1]: {"recorded": True, "stored_eval_starts_trained_on": [0, 1, 2]},
+            }
+        },
+    }
+    root.mkdir(parents=True)
+    write(root / "config.json", config)
+    write(root / "results.json", results.to_dict())
+    return root
+
+
+def test_mcnemar_exact_matches_the_binomial_test() -> None:
+    assert mcnemar_exact(0, 0) == 1.0
+    assert mcnemar_exact(0, 6) == pytest.approx(2 * 0.5**6)
+    assert mcnemar_exact(6, 0) == mcnemar_exact(0, 6)
+    assert mcnemar_exact(3, 4) == 1.0
+    assert mcnemar_exact(1, 9) == pytest.approx(2 * (1 + 10) / 2**10)
+
+
+def test_report_gives_rates_with_n_and_intervals_from_both_kinds_of_start(tmp_path: Path) -> None:
+    run = _fake_run(
+        tmp_path / "a",
+        algo="seql",
+        seed=0,
+        learn=[[1] * 18 + [0] * 2, [1] * 16 + [0] * 4],
+        after=[1] * 5 + [0] * 15,
+        heldout=[[1] * 15 + [0] * 5, [1] * 14 + [0] * 6],
+    )
+    summary = write_report([run], tmp_path / "report")
+    (group,) = summary["groups"]
+    stored, heldout = group["stored"], group["heldout"]
+    # Final success: task 0 after task 1 (5 of 20), task 1 at its kept epoch (16 of 20).
+    assert [(f["successes"], f["n"]) for f in stored["final"]] == [(5, 20), (16, 20)]
+    assert stored["final"][0]["low"] < 0.25 < stored["final"][0]["high"]
+    # NBT: 0.9 - 0.25 = 0.65 over the first task; its interval holds it and has a width.
+    assert stored["nbt"]["mean"] == pytest.approx(0.65)
+    assert stored["nbt"]["low"] < 0.65 < stored["nbt"]["high"]
+    assert stored["nbt"]["high"] - stored["nbt"]["low"] > 0.1
+    assert heldout["fwt"]["mean"] == pytest.approx((0.75 + 0.7) / 2)
+    assert heldout["fwt"]["low"] < heldout["fwt"]["mean"] < heldout["fwt"]["high"]
+    text = (tmp_path / "report" / "report.md").read_text()
+    assert "| seql + resnet_t |" in text and "held out" in text and "[" in text
+    assert "began from 3 of the stored init states" in text  # the run says where its data began
+    for name in (
+        "seql-resnet-t_success_matrix.png",
+        "seql-resnet-t_success_curves.png",
+        "seql-resnet-t_metrics.png",
+    ):
+        assert (tmp_path / "report" / name).read_bytes()[:4] == b"\x89PNG"
+    # The draws are seeded: the same runs give the same interval.
+    wide = summarize([load_run(run)])["groups"][0]["stored"]["nbt"]
+    assert wide["high"] - wide["low"] == pytest.approx(stored["nbt"]["high"] - stored["nbt"]["low"])
+
+
+def test_several_seeds_give_one_interval_over_runs_and_rollouts(tmp_path: Path) -> None:
+    runs = [
+        _fake_run(
+            tmp_path / f"s{seed}",
+            algo="er",
+            seed=seed,
+            learn=[[1] * 20, [1] * 20],
+            after=[1] * (10 + 5 * seed) + [0] * (10 - 5 * seed),
+        )
+        for seed in (0, 1)
+    ]
+    group = summarize([load_run(r) for r in runs])["groups"][0]
+    assert group["seeds"] == [0, 1]
+    nbt = group["stored"]["nbt"]
+    assert nbt["mean"] == pytest.approx((0.5 + 0.25) / 2) and nbt["runs"] == 2
+    assert nbt["interval"] == "bootstrap over runs and rollouts"
+    assert nbt["low"] <= 0.25 and nbt["high"] >= 0.5
+
+
+def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) -> None:
+    seql = _fake_run(
+        tmp_path / "seql", algo="seql", seed=0, learn=[[1] * 20, [1] * 20], after=[0] * 18 + [1] * 2
+    )
+    er = _fake_run(tmp_path / "er", algo="er", seed=0, learn=[[1] * 20, [1] * 20], after=[1] * 20)
+    result = compare_runs(seql, er)
+    task0 = result["stored"]["tasks"][TASKS[0]]
+    assert (task0["a"]["successes"], task0["b"]["successes"], task0["only_a"], task0["only_b"]) == (
+        2,
+        20,
+        0,
+        18,
+    )
+    assert task0["p_value"] == pytest.approx(2 * 0.5**18) and task0["significant"]
+    task1 = result["stored"]["tasks"][TASKS[1]]
+    assert task1["p_value"] == 1.0 and not task1["significant"]
+    assert result["stored"]["all"]["n"] == 40 and result["heldout"] is None
+
+    # Through the command line: one line per kind of start, and the files.
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "libero_bench.cli",
+            "compare",
+            str(seql),
+            str(er),
+            "--out",
+            str(tmp_path / "cmp"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "stored starts, all tasks: A 22/40, B 40/40; B succeeds more often" in done.stdout
+    assert json.loads((tmp_path / "cmp" / "compare.json").read_text())["stored"]["all"]["significant"]
+    assert "McNemar" in (tmp_path / "cmp" / "compare.md").read_text()
+
+
+def test_runs_evaluated_from_other_starts_are_not_paired(tmp_path: Path) -> None:
+    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
+    b = _fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
+    results = json.loads((b / "results.json").read_text())
+    for r in results["rollouts"]:
+        r["env_seed"] += 7
+    (b / "results.json").write_text(json.dumps(results))
+    with pytest.raises(ValueError, match="started from different states"):
+        compare_runs(a, b)
+    assert math.isfinite(summarize([load_run(a)])["groups"][0]["stored"]["fwt"]["mean"])
