@@ -36,21 +36,17 @@ from libero_bench.batch_keys import (
     WRIST,
 )
 from libero_data.errors import DatasetError, InputError, MissingFileError
+from libero_data.record.features import ACTION, OBS_GRIPPER, OBS_JOINTS, camera_keys_of
 
 if TYPE_CHECKING:
     import torch
 
 logger = logging.getLogger(__name__)
 
-# dataset feature keys (libero_data.record.features; repeated here to keep this import light)
-OBS_IMAGE = "observation.images.image"
-OBS_WRIST_IMAGE = "observation.images.wrist_image"
-OBS_JOINTS = "observation.joint_positions"
-OBS_GRIPPER = "observation.gripper_state"
-ACTION = "action"
-CAMERA_FEATURES = {AGENTVIEW: OBS_IMAGE, WRIST: OBS_WRIST_IMAGE}
 LOWDIM_FEATURES = {JOINT_STATES: OBS_JOINTS, GRIPPER_STATES: OBS_GRIPPER, ACTIONS: ACTION}
-REQUIRED_FEATURES = (OBS_IMAGE, OBS_WRIST_IMAGE, OBS_JOINTS, OBS_GRIPPER, ACTION)
+REQUIRED_FEATURES = (OBS_JOINTS, OBS_GRIPPER, ACTION)
+#: the policies' camera inputs -> our camera names
+CAMERA_INPUTS = {AGENTVIEW: "agentview", WRIST: "eye_in_hand"}
 
 
 @dataclass(frozen=True)
@@ -93,15 +89,18 @@ class DemoDataset:
             raise DatasetError(f"{self.root} is not a LeRobot dataset (no meta/info.json)")
         self.info: dict[str, Any] = json.loads(info_path.read_text())
         features = self.info.get("features", {})
-        missing = [f for f in REQUIRED_FEATURES if f not in features]
+        cameras = camera_keys_of(features)  # either naming profile
+        missing = [f"the {c} camera" for c in CAMERA_INPUTS.values() if c not in cameras]
+        missing += [f for f in REQUIRED_FEATURES if f not in features]
         if missing:
             raise DatasetError(
                 f"{self.root} lacks the feature(s) {', '.join(missing)} that the policies need"
             )
-        for key in (OBS_IMAGE, OBS_WRIST_IMAGE):
+        self.camera_features = {name: cameras[camera] for name, camera in CAMERA_INPUTS.items()}
+        for key in self.camera_features.values():
             if features[key].get("dtype") != "video":
                 raise DatasetError(f"{self.root}: feature {key} must be stored as video")
-        shape = features[OBS_IMAGE]["shape"]
+        shape = features[self.camera_features[AGENTVIEW]]["shape"]
         self.image_size = int(shape[0])
         self.fps = float(self.info["fps"])
         meta_path = self.root / "meta" / "libero.json"
@@ -244,7 +243,7 @@ class DemoDataset:
         meta = self.lerobot.meta
         record = meta.episodes[episode]
         images: dict[str, torch.Tensor] = {}
-        for key, feature in CAMERA_FEATURES.items():
+        for key, feature in self.camera_features.items():
             start = float(record[f"videos/{feature}/from_timestamp"])
             path = self.root / meta.get_video_file_path(episode, feature)
             frames = decode_video_frames(

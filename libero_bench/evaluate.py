@@ -185,6 +185,7 @@ def observation_batch(obs: Mapping[str, Any], task_emb: np.ndarray) -> dict[str,
 def run_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
     """Roll the shared policy out once and store the rollout (a job of the runner)."""
     from libero_bench.rerun_log import write_rollout_rrd
+    from libero_data.record.features import FeatureLayout
     from libero_data.record.shard import write_frames
     from libero_data.sim import EnvConfig, LiberoEnv
 
@@ -220,7 +221,7 @@ def run_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
         success=success,
         task=job.task_name,
         instruction=job.language,
-        image_size=job.image_size,
+        layout=FeatureLayout(image_size=job.image_size),
         sim_state_width=job.sim_state_width,
         info={**tags, "language": job.language, "key": job.key},
     )

@@ -37,8 +37,9 @@ def run_cli(
 
 def make_tiny_dataset(out: Path) -> Path:
     # One worker (the default): the Ray and kill-and-resume tests run two and compare their
-    # datasets with this one, which is what shows the worker count changes nothing.
-    result = run_cli("generate", *TINY, "--out", str(out))
+    # datasets with this one, which is what shows the worker count changes nothing. The work
+    # files stay: tests read the search records.
+    result = run_cli("generate", *TINY, "--keep-work", "--out", str(out))
     assert result.returncode == 0, result.stderr[-3000:]
     return out
 

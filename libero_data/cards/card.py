@@ -28,6 +28,10 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
+#: How the card names each camera.
+CAMERA_WORDS = {"agentview": "agentview", "eye_in_hand": "eye-in-hand"}
+
+
 def render_card(
     *,
     title: str,
@@ -44,8 +48,12 @@ def render_card(
     settings: dict[str, str],
     start_note: str,
     expert_note: str = "",
+    camera_keys: dict[str, str] | None = None,
 ) -> str:
     """The card text; every number comes from the caller (nothing is guessed here)."""
+    from libero_data.record.features import CAMERA_KEYS
+
+    keys = camera_keys or CAMERA_KEYS
     rows = []
     for t in tasks:
         rate = f"{t.success_rate:.0%} ({t.successes}/{t.attempts})" if t.attempts else "–"
@@ -69,6 +77,8 @@ def render_card(
         episodes=sum(t.episodes for t in tasks),
         frames="—" if frames is None else frames,
         dataset_info=dataset_info,
+        cameras=" and ".join(f"{CAMERA_WORDS[c]} (`{k}`)" for c, k in keys.items()),
+        first_camera=next(iter(keys.values())),
         fps=fps,
         tasks=len(tasks),
         image_size=image_size,

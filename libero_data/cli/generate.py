@@ -7,6 +7,7 @@ import os
 import shlex
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -14,7 +15,6 @@ import typer
 
 from libero_data.cli.common import (
     ExecutorKind,
-    ImageSize,
     RayAddress,
     Seed,
     Workers,
@@ -82,6 +82,24 @@ EpisodesPerTask = Annotated[
         min=1,
     ),
 ]
+Features = Annotated[
+    str,
+    typer.Option(
+        "--features",
+        help="Feature names: 'libero-data' (eye-in-hand camera observation.images.wrist_image, as LeRobot's "
+        "Hub LIBERO datasets; 128x128 by default) or 'lerobot-libero' (observation.images.image2, as LeRobot's "
+        "LIBERO environment; 256x256 by default).",
+    ),
+]
+GenImageSize = Annotated[
+    int | None,
+    typer.Option(
+        "--image-size",
+        help="Camera image size in pixels (square); default: the feature names' size.",
+        min=32,
+        max=512,
+    ),
+]
 Starts = Annotated[
     str,
     typer.Option(
@@ -97,6 +115,14 @@ MaxAttempts = Annotated[
 RepoId = Annotated[
     str | None,
     typer.Option("--repo-id", help="Dataset id recorded in the metadata; default libero-data/<suite>."),
+]
+KeepWork = Annotated[
+    bool,
+    typer.Option(
+        "--keep-work",
+        help="Keep the work files (.libero-data/: search records, shards) once the dataset is complete; "
+        "by default the finished folder holds the dataset only.",
+    ),
 ]
 PublishEvery = Annotated[
     float,
@@ -129,13 +155,15 @@ def generate_cmd(
     variants_of: VariantsOf = None,
     kinds: Kinds = None,
     episodes_per_task: EpisodesPerTask = 50,
-    image_size: ImageSize = 128,
+    image_size: GenImageSize = None,
+    features: Features = "libero-data",
     starts: Starts = "sampler",
     workers: Workers = 1,
     seed: Seed = 0,
     max_attempts: MaxAttempts = 8,
     repo_id: RepoId = None,
     publish_every: PublishEvery = 60.0,
+    keep_work: KeepWork = False,
     executor: ExecutorKind = "local",
     ray_address: RayAddress = None,
 ) -> None:
@@ -144,6 +172,7 @@ def generate_cmd(
     Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
     """
     from libero_data.pipeline.request import resolve_request
+    from libero_data.record.features import PROFILE_IMAGE_SIZE
     from libero_data.runtime.jobs import Executor
     from libero_data.runtime.memory import limit_malloc_arenas
 
@@ -164,18 +193,19 @@ def generate_cmd(
         suite or "libero_object",
         task_refs or None,
         episodes_per_task=episodes_per_task,
-        image_size=image_size,
+        image_size=image_size or PROFILE_IMAGE_SIZE.get(features, 128),
         seed=seed,
         max_attempts=max_attempts,
         repo_id=repo_id,
         starts=starts,
+        features=features,
     )
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     say(
         f"generating {len(request.tasks)} task(s) × {request.episodes_per_task} episode(s) of "
         f"{suite or 'libero_object'} into {out} {runner.describe()}"
     )
-    _generate(request, out, workers, executor, ray_address, publish_every, command)
+    _generate(request, out, workers, executor, ray_address, publish_every, command, keep_work)
 
 
 def _check_combination(
@@ -208,9 +238,29 @@ def _generate(
     ray_address: str | None,
     publish_every: float,
     command: str,
+    keep_work: bool,
 ) -> None:
     from libero_data.pipeline.generate import generate
 
+    def work(show: Callable[[Any], None]) -> Any:
+        return generate(
+            request,
+            out,
+            workers=workers,
+            on_progress=show,
+            command=command,
+            publish_every=publish_every,
+            executor=executor,
+            ray_address=ray_address,
+            keep_work=keep_work,
+        )
+
+    episodes_with_progress(work, request, out)
+
+
+def episodes_with_progress(work: Callable[[Callable[[Any], None]], Any], request: Any, out: Path) -> Any:
+    """Run ``work(on_progress)`` (generating or re-rendering episodes) under a progress bar,
+    then say what was made and how to load it."""
     start = time.monotonic()
     with progress("failed", "attempts", "published") as bar:
         fields = {"failed": "failed 0", "attempts": "attempts 0", "published": "published 0"}
@@ -226,16 +276,7 @@ def _generate(
             )
 
         try:
-            result = generate(
-                request,
-                out,
-                workers=workers,
-                on_progress=show,
-                command=command,
-                publish_every=publish_every,
-                executor=executor,
-                ray_address=ray_address,
-            )
+            result = work(show)
         except KeyboardInterrupt:
             raise fail(
                 f"interrupted; finished episodes are kept in {out}, run the same command to continue",
@@ -249,6 +290,7 @@ def _generate(
     say("load it with:")
     say(f'  datasets.load_dataset("{out}", split="train")')
     say(f'  LeRobotDataset("{request.repo_id}", root="{out}")')
+    return result
 
 
 def _procedural_suite(

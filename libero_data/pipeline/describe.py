@@ -14,8 +14,6 @@ from typing import Any
 
 from libero_data.pipeline.request import STORED_INITS, GenerateRequest, Slot
 
-PROJECT_URL = "https://github.com/"
-
 
 def describe_dataset(
     request: GenerateRequest,
@@ -57,6 +55,7 @@ def describe_dataset(
         "image size": f"{request.image_size}×{request.image_size}",
         "seed": str(request.seed),
         "starts": START_WORDS[request.starts],
+        "feature names": request.features,
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         "complete": "yes" if complete else "no (generation still running or interrupted)",
@@ -67,7 +66,8 @@ def describe_dataset(
     }
     card = render_card(
         title=f"libero-data · {suite.name}",
-        summary=f"Scripted demonstrations of the LIBERO suite `{suite.name}`, made with [libero-data]({PROJECT_URL}) in LeRobot v3 format.",
+        summary=f"Scripted demonstrations of the LIBERO suite `{suite.name}`, made with libero-data in LeRobot v3 format."
+        + (f" Re-rendered from the stored states of `{request.source}`." if request.source else ""),
         suite=suite.name,
         repo_id=request.repo_id,
         load_path=".",
@@ -80,6 +80,7 @@ def describe_dataset(
         sim_state_width=width,
         settings=settings,
         start_note=start_note(request.starts, request.episodes_per_task),
+        camera_keys=request.layout.camera_keys,
     )
     meta = {
         "request": request.to_dict(),

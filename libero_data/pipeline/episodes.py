@@ -13,7 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from libero_data.pipeline.request import GenerateRequest, Slot
+from libero_data.record.features import CAMERAS
 from libero_data.runtime.files import load_record, save_record
 from libero_data.runtime.jobs import WorkerCache, WorkerContext
 from libero_data.seeding import demo_key, episode_seeds
@@ -22,14 +25,14 @@ from libero_data.seeding import demo_key, episode_seeds
 UNKNOWN_MACHINE: dict[str, Any] = {"numeric_key": "unknown"}
 
 
-def search_path(slot: Slot) -> Path:
-    """Where a slot's search record lives, relative to the work folder."""
-    return Path("search") / f"{slot.key}.npz"
+def search_path(key: str) -> Path:
+    """Where a slot's search record lives (by the slot's key), relative to the work folder."""
+    return Path("search") / f"{key}.npz"
 
 
-def shard_path(slot: Slot) -> Path:
-    """Where a slot's shard lives, relative to the work folder."""
-    return Path("shards") / slot.key
+def shard_path(key: str) -> Path:
+    """Where a slot's shard lives (by the slot's key), relative to the work folder."""
+    return Path("shards") / key
 
 
 @dataclass(frozen=True)
@@ -53,7 +56,9 @@ class EpisodeDone:
     attempts: int
 
 
-def expert_env(cache: WorkerCache, task: Any, image_size: int) -> tuple[Any, Any]:
+def expert_env(
+    cache: WorkerCache, task: Any, image_size: int, cameras: tuple[str, ...] = CAMERAS
+) -> tuple[Any, Any]:
     """(env, expert) of ``task`` at ``image_size`` from the worker's cache, built when it changed.
 
     Episodes do not depend on what ran before them in an environment (``reset`` and
@@ -65,10 +70,10 @@ def expert_env(cache: WorkerCache, task: Any, image_size: int) -> tuple[Any, Any
     from libero_data.sim import EnvConfig, LiberoEnv
 
     def build() -> tuple[Any, Any]:
-        env = LiberoEnv(task, EnvConfig(image_size=image_size))
+        env = LiberoEnv(task, EnvConfig(image_size=image_size, cameras=cameras))
         return env, Expert(env, ExpertConfig())
 
-    key = (str(task.suite), int(task.index), int(image_size))
+    key = (str(task.suite), int(task.index), int(image_size), cameras)
     return cache.get("env", key, build, close=lambda pair: pair[0].close())
 
 
@@ -116,9 +121,10 @@ def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot
     }
 
 
-def episode_info(task: Any, record: dict[str, Any], gl: dict[str, str]) -> dict[str, Any]:
+def episode_info(task: Any, slot: Slot, record: dict[str, Any], gl: dict[str, str]) -> dict[str, Any]:
     """What a kept episode's ``episode.json`` says about it, beside its frames."""
     return {
+        "slot": slot.key,
         "suite": task.suite,
         "task_index": task.index,
         "task_name": task.name,
@@ -138,6 +144,16 @@ def episode_info(task: Any, record: dict[str, Any], gl: dict[str, str]) -> dict[
         "gl": gl,
         "success": True,
     }
+
+
+def _final_state(env: Any, record: dict[str, Any]) -> np.ndarray:
+    """The state after an episode's last action: searched episodes keep it; an episode taken
+    from a dataset (which stores each frame's state before its action) steps it again."""
+    if "final_state" in record:
+        return np.asarray(record["final_state"])
+    env.set_state(record["states"][-1])
+    env.advance(record["actions"][-1])
+    return np.asarray(env.get_state())
 
 
 def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
@@ -167,8 +183,8 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
         if finishing is not None:
             finishing.result()
             release_free_memory()  # what the episode's encoders and buffers freed
-            ctx.ship(shard_path(slot))
-        ctx.ship(search_path(slot))  # last: its presence marks the slot as done
+            ctx.ship(shard_path(slot.key))
+        ctx.ship(search_path(slot.key))  # last: its presence marks the slot as done
         event = EpisodeDone(slot.key, slot.k, bool(record["success"]), int(record["attempts"]))
         done.append(event)
         ctx.report(event)
@@ -176,28 +192,28 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
     try:
         for k in job.ks:
             slot = Slot(job.position, job.task_index, k)
-            search, shard = ctx.root / search_path(slot), ctx.root / shard_path(slot)
+            search, shard = ctx.root / search_path(slot.key), ctx.root / shard_path(slot.key)
             if search.is_file():
                 record = load_record(search)
             else:
-                env, expert = expert_env(ctx.cache, task, request.image_size)
+                env, expert = expert_env(ctx.cache, task, request.image_size, tuple(request.cameras))
                 record = search_slot(env, expert, task, request, slot)
                 save_record(search, record)
             finishing = None
             if record["success"] and not shard.is_dir():
-                env, _expert = expert_env(ctx.cache, task, request.image_size)
+                env, _expert = expert_env(ctx.cache, task, request.image_size, tuple(request.cameras))
                 env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
                 finish = render_shard(
                     shard,
                     env=env,
                     states=record["states"],
                     actions=record["actions"],
-                    final_state=record["final_state"],
+                    final_state=_final_state(env, record),
                     task=task.name,
                     instruction=task.language,
-                    image_size=request.image_size,
+                    layout=request.layout,
                     sim_state_width=job.sim_state_width,
-                    info=episode_info(task, record, env.gl_info()),
+                    info=episode_info(task, slot, record, env.gl_info()),
                 )
                 finishing = writer.submit(finish)
             settle()

@@ -17,12 +17,13 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from libero_data.errors import FolderError
+from libero_data.errors import FolderError, SettingsChanged
 from libero_data.pipeline.episodes import EpisodeDone, EpisodeJob, make_episodes, search_path, shard_path
 from libero_data.pipeline.request import (
     LEGACY_REQUEST,
@@ -32,7 +33,7 @@ from libero_data.pipeline.request import (
     slots_of,
 )
 from libero_data.runtime.files import load_record, write_json
-from libero_data.runtime.folder import DATASET_WORK, WorkFolder
+from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
 from libero_data.runtime.jobs import Executor, JobRunner
 
 __all__ = ["GenerateRequest", "Progress", "PublishClock", "generate", "resolve_request"]
@@ -103,10 +104,10 @@ class _Run:
     def read_status(self) -> None:
         """The slots finished by earlier runs: given up, or searched with their shard on disk."""
         for slot in self.slots:
-            search = self.work / search_path(slot)
+            search = self.work / search_path(slot.key)
             if search.is_file():
                 record = load_record(search)
-                if not record["success"] or (self.work / shard_path(slot)).is_dir():
+                if not record["success"] or (self.work / shard_path(slot.key)).is_dir():
                     self.note(EpisodeDone(slot.key, slot.k, bool(record["success"]), int(record["attempts"])))
 
     def note(self, done: EpisodeDone) -> None:
@@ -131,6 +132,13 @@ class _Run:
                 jobs.append(EpisodeJob(request, position, task_index, tuple(ks[i : i + chunk]), self.width))
         return jobs
 
+    @property
+    def complete(self) -> bool:
+        """Every slot is done (kept or given up) and the dataset says so."""
+        return all(s.key in self.status for s in self.slots) and published_count(self.out) == sum(
+            1 for ok, _ in self.status.values() if ok
+        )
+
     def maybe_publish(self, force: bool = False) -> None:
         if not force and not self.clock.due():
             return
@@ -153,7 +161,7 @@ class _Run:
             if slot.key not in self.status:
                 break
             if self.status[slot.key][0]:
-                shards.append(self.work / shard_path(slot))
+                shards.append(self.work / shard_path(slot.key))
         complete = all(s.key in self.status for s in self.slots)
         if not shards:
             return 0
@@ -203,6 +211,31 @@ def _check_out_dir(out: Path, folder: WorkFolder) -> None:
         )
 
 
+def finished(out: Path, request: GenerateRequest) -> Progress | None:
+    """The finished dataset at ``out`` made by ``request`` (its work files removed), if there is
+    one; :class:`SettingsChanged` where the finished dataset was made by another request."""
+    meta_path = out / "meta" / "libero.json"
+    if (out / DATASET_WORK).exists() or not meta_path.is_file():
+        return None
+    meta = json.loads(meta_path.read_text())
+    if not meta.get("complete"):
+        return None
+    changed = changed_keys({**LEGACY_REQUEST, **meta["request"]}, request.to_dict())
+    if changed:
+        raise SettingsChanged(
+            f"{out} holds a finished dataset made with different settings ({', '.join(changed)}); "
+            "choose another output folder",
+            changed=changed,
+        )
+    tasks = meta.get("tasks", [])
+    episodes = sum(int(t["episodes"]) for t in tasks)
+    slots = len(request.tasks) * request.episodes_per_task
+    attempts = sum(int(t["attempts"]) for t in tasks)
+    return Progress(
+        total=slots, done=episodes, failed=slots - episodes, attempts=attempts, published=episodes
+    )
+
+
 def generate(
     request: GenerateRequest,
     out: str | Path,
@@ -213,18 +246,26 @@ def generate(
     command: str = "",
     executor: str = "local",
     ray_address: str | None = None,
+    keep_work: bool = False,
 ) -> Progress:
     """Generate (or continue generating) the requested dataset into ``out``.
 
     ``executor="local"`` runs ``workers`` processes on this machine; ``"ray"`` runs the jobs on
     Ray (on the cluster at ``ray_address``, or on a Ray instance started here with ``workers``
     CPUs). Either way the driver writes every file, so a cluster needs no shared storage, and
-    the same request gives the same dataset.
+    the same request gives the same dataset. Once every episode is done the work files
+    (``.libero-data/``) are removed, so the folder holds the dataset only, ready to upload;
+    ``keep_work`` keeps them. Generating a finished dataset again does nothing.
     """
     from libero_data.pipeline.publish import recover
 
     runner_executor = Executor.processes(workers, executor, ray_address)
     out = Path(out).resolve()
+    done = finished(out, request)
+    if done is not None:
+        if on_progress:
+            on_progress(done)
+        return done
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     _check_out_dir(out, folder)
     with folder.locked(owner=out):
@@ -249,4 +290,6 @@ def generate(
             for _ in runner.run(make_episodes, run.jobs(workers), on_event=landed):
                 run.maybe_publish()
         run.maybe_publish(force=True)
-        return run.progress
+    if run.complete and not keep_work:
+        shutil.rmtree(folder.root, ignore_errors=True)
+    return run.progress

@@ -13,14 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from libero_data.errors import DatasetError, InputError
-from libero_data.record.features import (
-    ACTION,
-    ACTION_NAMES,
-    OBS_IMAGE,
-    OBS_STATE,
-    OBS_WRIST_IMAGE,
-    STATE_NAMES,
-)
+from libero_data.record.features import ACTION, ACTION_NAMES, OBS_STATE, STATE_NAMES, camera_keys_of
 from libero_data.record.rrd import rrd_file
 
 
@@ -51,7 +44,8 @@ def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
                 language = str(item["task"])
                 rec.log("language", rr.TextDocument(language), static=True)
                 rec.log("log", rr.TextLog(f"episode {episode}: {language}"))
-            for key, path in ((OBS_IMAGE, "cameras/agentview"), (OBS_WRIST_IMAGE, "cameras/eye_in_hand")):
+            for camera, key in camera_keys_of(info["features"]).items():
+                path = f"cameras/{camera}"
                 if key in item:
                     image = (item[key].permute(1, 2, 0).numpy() * 255).round().clip(0, 255).astype(np.uint8)
                     rec.log(path, rr.Image(image).compress(jpeg_quality=90))

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from libero_data.config import Config
 from libero_data.errors import InputError
+from libero_data.record.features import CAMERAS, FeatureLayout
 
 #: LIBERO's stored init states per task; with ``starts="stored"``, episode k < 50 of a task
 #: starts from init state k.
@@ -20,8 +21,8 @@ STORED_INITS = 50
 #: stream (``sampler``: evaluation never uses them), or LIBERO's stored init states (``stored``:
 #: the ones the paper's evaluation uses) and the sampler beyond the 50th episode.
 STARTS = ("sampler", "stored")
-#: What requests made before ``starts`` existed did (read from their saved ``request.json``).
-LEGACY_REQUEST = {"starts": "stored"}
+#: What requests made before a field existed did (read from their saved ``request.json``).
+LEGACY_REQUEST = {"starts": "stored", "features": "libero-data", "cameras": list(CAMERAS), "source": ""}
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,9 @@ class GenerateRequest(Config):
     max_attempts: int = 8
     repo_id: str = ""
     starts: str = "sampler"
+    features: str = "libero-data"  # the naming profile (libero_data.record.features.PROFILES)
+    cameras: tuple[str, ...] = CAMERAS
+    source: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
 
     def __post_init__(self) -> None:
         if self.episodes_per_task < 1:
@@ -53,6 +57,12 @@ class GenerateRequest(Config):
             raise InputError("no tasks selected", field="tasks")
         if self.starts not in STARTS:
             raise InputError(f"starts must be {' or '.join(STARTS)}, got {self.starts!r}", field="starts")
+        FeatureLayout(self.features, tuple(self.cameras), self.image_size)  # checks profile and cameras
+
+    @property
+    def layout(self) -> FeatureLayout:
+        """What the dataset stores of each frame's images."""
+        return FeatureLayout(self.features, tuple(self.cameras), self.image_size)
 
     def stored_start(self, k: int, stored: int) -> int | None:
         """The stored init state episode ``k`` starts from, or None (LIBERO's sampler)."""
@@ -84,6 +94,8 @@ def resolve_request(
     max_attempts: int = 8,
     repo_id: str | None = None,
     starts: str = "sampler",
+    features: str = "libero-data",
+    cameras: tuple[str, ...] = CAMERAS,
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
     from libero_data.tasks import get_suite
@@ -105,6 +117,8 @@ def resolve_request(
         max_attempts=max_attempts,
         repo_id=repo_id or f"libero-data/{s.name}",
         starts=starts,
+        features=features,
+        cameras=tuple(cameras),
     )
 
 

@@ -57,7 +57,7 @@ def validate(
         return report
     note("episode table")
     try:
-        episodes = _episode_table(root)
+        episodes = episode_table(root)
     except Exception as exc:  # any failure to read the table is a finding, not a crash
         issues.append(
             Issue(str(root / "meta" / "episodes"), f"unreadable episode table ({type(exc).__name__}: {exc})")
@@ -94,7 +94,7 @@ def validate(
     return report
 
 
-def _episode_table(root: Path) -> list[dict[str, Any]]:
+def episode_table(root: Path) -> list[dict[str, Any]]:
     import pyarrow.parquet as pq
 
     files = sorted((root / "meta" / "episodes").glob("*/*.parquet"))

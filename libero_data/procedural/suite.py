@@ -24,9 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from libero_data.config import Config
+from libero_data.errors import SettingsChanged
 from libero_data.procedural.sampler import SampledTask, sample_tasks
 from libero_data.runtime.files import save_npz, write_json, write_text
-from libero_data.runtime.folder import DATASET_WORK, WorkFolder
+from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
 from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
 from libero_data.seeding import CANDIDATE_EXPERT, candidate_seed
 from libero_data.tasks import SUITE_MANIFEST
@@ -134,6 +135,12 @@ def make_suite(
     code = expert_code()  # of the code this process runs (read before any check)
     out = Path(out).resolve()
     folder = WorkFolder(out / DATASET_WORK / "procedural", "procedural suite")
+    done = _finished(out, folder, settings)
+    if done is not None:  # made before, its work files removed with its dataset's
+        for verdict in done:
+            if on_verdict:
+                on_verdict(verdict)
+        return done
     folder.claim(settings.to_dict(), owner=out)
     candidates = _candidates(settings)
     verdicts: dict[int, Verdict] = {}
@@ -170,6 +177,23 @@ def make_suite(
     ordered = [verdicts[i] for i in range(len(candidates))]
     _write_suite(out, settings, candidates, ordered, states, code)
     return ordered
+
+
+def _finished(out: Path, folder: WorkFolder, settings: ProceduralSettings) -> list[Verdict] | None:
+    """The verdicts of the suite already written in ``out`` by these settings, if it is there
+    and its work folder is gone; :class:`SettingsChanged` where other settings made it."""
+    manifest, report = out / SUITE_MANIFEST, out / "procedural_report.json"
+    if folder.root.exists() or not manifest.is_file() or not report.is_file():
+        return None
+    made = json.loads(manifest.read_text())["generator"]["settings"]
+    changed = changed_keys(made, settings.to_dict())
+    if changed:
+        raise SettingsChanged(
+            f"{out} holds a procedural suite made with different settings ({', '.join(changed)}); "
+            "use the same command to continue it, or another output folder",
+            changed=changed,
+        )
+    return [Verdict(**v) for v in json.loads(report.read_text())["candidates"]]
 
 
 def _candidates(settings: ProceduralSettings) -> list[tuple[SampledTask | None, str, str, str]]:

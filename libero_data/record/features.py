@@ -1,7 +1,9 @@
 """Feature keys and shapes of libero-data datasets (LeRobot's LIBERO naming).
 
-``observation.images.image`` is LIBERO's agentview camera and
-``observation.images.wrist_image`` the eye-in-hand camera, both stored upright.
+``observation.images.image`` is LIBERO's agentview camera and the eye-in-hand camera is
+``observation.images.wrist_image`` (the ``libero-data`` profile, as LeRobot's LIBERO datasets on
+the Hub name it) or ``observation.images.image2`` (the ``lerobot-libero`` profile, as LeRobot's
+LIBERO environment names it); both are stored upright.
 ``observation.state`` is the 8-D state policies usually read (eef position, eef axis-angle,
 gripper finger positions), ``action`` the 7-D OSC delta pose + gripper command.
 The flattened MuJoCo state of every frame is stored padded to the dataset's widest task,
@@ -10,9 +12,12 @@ with its true width beside it, so any frame can be restored exactly.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from libero_data.errors import InputError
 
 OBS_IMAGE = "observation.images.image"
 OBS_WRIST_IMAGE = "observation.images.wrist_image"
@@ -24,8 +29,56 @@ OBS_SIM_STATE = "observation.sim_state"
 OBS_SIM_STATE_DIM = "observation.sim_state_dim"
 ACTION = "action"
 
-#: our camera names -> dataset keys
-CAMERA_KEYS = {"agentview": OBS_IMAGE, "eye_in_hand": OBS_WRIST_IMAGE}
+OBS_IMAGE2 = "observation.images.image2"
+
+#: Naming profiles: our camera names -> dataset keys.
+PROFILES: dict[str, dict[str, str]] = {
+    "libero-data": {"agentview": OBS_IMAGE, "eye_in_hand": OBS_WRIST_IMAGE},
+    "lerobot-libero": {"agentview": OBS_IMAGE, "eye_in_hand": OBS_IMAGE2},
+}
+#: The image size a profile gets where none is asked for (LeRobot's LIBERO datasets are 256x256).
+PROFILE_IMAGE_SIZE = {"libero-data": 128, "lerobot-libero": 256}
+CAMERAS = ("agentview", "eye_in_hand")
+#: our camera names -> dataset keys of the default profile
+CAMERA_KEYS = PROFILES["libero-data"]
+
+
+@dataclass(frozen=True)
+class FeatureLayout:
+    """What a dataset stores of each frame's images: the naming profile, the cameras, the size."""
+
+    profile: str = "libero-data"
+    cameras: tuple[str, ...] = CAMERAS
+    image_size: int = 128
+
+    def __post_init__(self) -> None:
+        if self.profile not in PROFILES:
+            raise InputError(
+                f"unknown feature naming {self.profile!r}; choose {' or '.join(PROFILES)}", field="features"
+            )
+        bad = [c for c in self.cameras if c not in CAMERAS]
+        if bad or not self.cameras or len(set(self.cameras)) != len(self.cameras):
+            raise InputError(
+                f"cameras must be one or both of {', '.join(CAMERAS)}, got {', '.join(self.cameras)}",
+                field="cameras",
+            )
+
+    @property
+    def camera_keys(self) -> dict[str, str]:
+        """Our camera names -> the dataset's keys, for the stored cameras."""
+        return {c: PROFILES[self.profile][c] for c in self.cameras}
+
+
+def camera_keys_of(features: dict[str, Any]) -> dict[str, str]:
+    """The cameras a dataset stores (its ``info.json`` features) -> their keys, whatever profile."""
+    found = {}
+    for camera in CAMERAS:
+        for profile in PROFILES.values():
+            if profile[camera] in features:
+                found[camera] = profile[camera]
+                break
+    return found
+
 
 STATE_NAMES = ["eef_x", "eef_y", "eef_z", "eef_ax", "eef_ay", "eef_az", "gripper_left", "gripper_right"]
 ACTION_NAMES = ["dx", "dy", "dz", "drx", "dry", "drz", "gripper"]
@@ -34,17 +87,16 @@ EEF_POSE_NAMES = ["x", "y", "z", "qx", "qy", "qz", "qw"]
 
 
 def dataset_features(
-    image_size: int, sim_state_width: int, *, use_videos: bool = True
+    layout: FeatureLayout, sim_state_width: int, *, use_videos: bool = True
 ) -> dict[str, dict[str, Any]]:
-    """The LeRobot feature spec of a dataset with square images of ``image_size`` pixels."""
+    """The LeRobot feature spec of a dataset with the layout's cameras, names and image size."""
     image = {
         "dtype": "video" if use_videos else "image",
-        "shape": (image_size, image_size, 3),
+        "shape": (layout.image_size, layout.image_size, 3),
         "names": ["height", "width", "channel"],
     }
     return {
-        OBS_IMAGE: dict(image),
-        OBS_WRIST_IMAGE: dict(image),
+        **{key: dict(image) for key in layout.camera_keys.values()},
         OBS_STATE: {"dtype": "float32", "shape": (8,), "names": STATE_NAMES},
         OBS_JOINTS: {"dtype": "float32", "shape": (7,), "names": JOINT_NAMES},
         OBS_GRIPPER: {"dtype": "float32", "shape": (2,), "names": ["left", "right"]},
@@ -55,7 +107,9 @@ def dataset_features(
     }
 
 
-def frame_from_observation(obs: dict[str, Any], action: np.ndarray, sim_state_width: int) -> dict[str, Any]:
+def frame_from_observation(
+    obs: dict[str, Any], action: np.ndarray, sim_state_width: int, layout: FeatureLayout | None = None
+) -> dict[str, Any]:
     """One LeRobot frame (without ``task``) from a :class:`~libero_data.sim.LiberoEnv` observation."""
     state = np.asarray(obs["sim_state"], dtype=np.float64)
     if state.shape[0] > sim_state_width:
@@ -73,7 +127,7 @@ def frame_from_observation(obs: dict[str, Any], action: np.ndarray, sim_state_wi
         OBS_SIM_STATE_DIM: np.array([state.shape[0]], dtype=np.int64),
         ACTION: np.asarray(action, dtype=np.float32),
     }
-    for camera, key in CAMERA_KEYS.items():
+    for camera, key in (layout or FeatureLayout()).camera_keys.items():
         if camera in obs:
             frame[key] = obs[camera]
     return frame

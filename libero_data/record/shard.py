@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_data.record.features import dataset_features, frame_from_observation
+from libero_data.record.features import FeatureLayout, dataset_features, frame_from_observation
 from libero_data.record.mcap_log import write_episode_mcap
 from libero_data.runtime.files import commit_folder, scratch_folder
 
@@ -63,7 +63,7 @@ def render_shard(
     final_state: np.ndarray,
     task: str,
     instruction: str,
-    image_size: int,
+    layout: FeatureLayout,
     sim_state_width: int,
     info: dict[str, Any],
 ) -> Callable[[], Path]:
@@ -83,7 +83,7 @@ def render_shard(
         success=success,
         task=task,
         instruction=instruction,
-        image_size=image_size,
+        layout=layout,
         sim_state_width=sim_state_width,
         info=info,
     )
@@ -96,7 +96,7 @@ def write_frames(
     success: list[bool],
     task: str,
     instruction: str,
-    image_size: int,
+    layout: FeatureLayout,
     sim_state_width: int,
     info: dict[str, Any],
     length: int | None = None,
@@ -118,7 +118,7 @@ def write_frames(
         success=success,
         task=task,
         instruction=instruction,
-        image_size=image_size,
+        layout=layout,
         sim_state_width=sim_state_width,
         info=info,
     )()
@@ -132,7 +132,7 @@ def _start(
     success: list[bool],
     task: str,
     instruction: str,
-    image_size: int,
+    layout: FeatureLayout,
     sim_state_width: int,
     info: dict[str, Any],
 ) -> Callable[[], Path]:
@@ -146,7 +146,7 @@ def _start(
         dataset = shard_dataset_class().create(
             SHARD_REPO,
             fps=FPS,
-            features=dataset_features(image_size, sim_state_width),
+            features=dataset_features(layout, sim_state_width),
             root=tmp,
             robot_type="panda",
             use_videos=True,
@@ -160,7 +160,7 @@ def _start(
         )
         kept: list[dict[str, Any]] = []
         for obs in frames:
-            frame = frame_from_observation(obs, obs["action"], sim_state_width)
+            frame = frame_from_observation(obs, obs["action"], sim_state_width, layout)
             frame["task"] = instruction
             dataset.add_frame(frame)
             kept.append(obs)

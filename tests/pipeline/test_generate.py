@@ -55,7 +55,10 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
     assert header["task_categories"] == ["robotics"]
     assert header["configs"][0]["data_files"] == "data/*/*.parquet"
     info = json.loads((tiny_dataset / "meta" / "info.json").read_text())
-    assert header["dataset_info"]["splits"] == [{"name": "train", "num_examples": info["total_frames"]}]
+    data_bytes = sum(p.stat().st_size for p in (tiny_dataset / "data").rglob("*.parquet"))
+    assert header["dataset_info"]["splits"] == [
+        {"name": "train", "num_examples": info["total_frames"], "num_bytes": data_bytes}
+    ]
     assert "LeRobot" in header["tags"]
     for needle in (
         "open the middle drawer of the cabinet",

@@ -65,11 +65,11 @@ def test_sigkill_then_rerun_completes_the_same_dataset(tiny_dataset: Path, tmp_p
     ours = (out / "meta" / "libero_episodes.jsonl").read_text()
     assert ours == (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text()
     assert json.loads((out / "meta" / "info.json").read_text())["total_episodes"] == 2
-    work = out / ".libero-data"
-    leftovers = [p.name for p in (work / "shards").iterdir() if ".tmp" in p.name] + list(
-        (work / "snapshots").iterdir()
-    )
-    assert leftovers == []
+    # Finished: the folder holds the dataset only (nothing of the work to upload by mistake), and
+    # the same command again has nothing to do.
+    assert sorted(p.name for p in out.iterdir()) == ["README.md", "data", "mcap", "meta", "videos"]
+    again = run_cli("generate", *TINY, "--out", str(out))
+    assert again.returncode == 0 and "done: 2 episodes" in again.stdout, again.stderr[-2000:]
 
 
 def test_changed_settings_are_refused(tiny_dataset: Path) -> None:

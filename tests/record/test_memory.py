@@ -15,6 +15,7 @@ sys.path.insert(0, {tests!r})
 from test_shard import _frames
 from libero_data.runtime.memory import limit_malloc_arenas, release_free_memory
 from libero_data.record import shard
+from libero_data.record.features import FeatureLayout
 if {limit}:
     assert limit_malloc_arenas()
 def rss():
@@ -26,7 +27,7 @@ work = Path(tempfile.mkdtemp())
 trace = []
 for i in range(60):
     out = shard.write_frames(work / str(i), frames=frames, success=[False] * 20, task="t", instruction="x",
-                             image_size=128, sim_state_width=12, info={{}})
+                             layout=FeatureLayout(image_size=128), sim_state_width=12, info={{}})
     shutil.rmtree(out)
     gc.collect()
     assert release_free_memory()  # as generate's worker does after each episode

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from libero_data.record import shard
+from libero_data.record.features import FeatureLayout
 
 
 def _frames(n: int, size: int = 32) -> list[dict]:
@@ -38,7 +39,7 @@ def _write(out: Path, frames: list[dict]) -> Path:
         success=[False] * (len(frames) - 1) + [True],
         task="synthetic",
         instruction="do nothing",
-        image_size=32,
+        layout=FeatureLayout(image_size=32),
         sim_state_width=12,
         info={"seed": 0},
     )
