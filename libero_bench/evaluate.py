@@ -182,30 +182,34 @@ def observation_batch(obs: Mapping[str, Any], task_emb: np.ndarray) -> dict[str,
     }
 
 
-def run_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
-    """Roll the shared policy out once and store the rollout (a job of the runner)."""
-    from libero_bench.rerun_log import write_rollout_rrd
-    from libero_data.record.features import FeatureLayout
-    from libero_data.record.shard import write_frames
+def rollout_env(ctx: WorkerContext, job: RolloutJob) -> Any:
+    """The job's task environment (both cameras at the job's size), kept by the worker."""
     from libero_data.sim import EnvConfig, LiberoEnv
 
-    start = time.perf_counter()
-    assert ctx.shared is not None, "rollouts need the policy file"
-    policy_file = ctx.shared
-    policy = ctx.cache.get("policy", str(policy_file), lambda: load_policy_file(policy_file))
-    env = ctx.cache.get(
+    return ctx.cache.get(
         "env",
         (job.env_ref, job.image_size),
         lambda: LiberoEnv(job.env_ref, EnvConfig(image_size=job.image_size, cameras=CAMERAS)),
         close=lambda e: e.close(),
     )
-    policy.reset()
+
+
+def roll_out_and_store(
+    ctx: WorkerContext, job: RolloutJob, act: Callable[[dict[str, Any]], np.ndarray]
+) -> RolloutResult:
+    """One rollout of ``act`` (an environment observation -> a 7-D action), stored like a
+    demonstration (shard, MCAP log, Rerun recording)."""
+    from libero_bench.rerun_log import write_rollout_rrd
+    from libero_data.record.features import FeatureLayout
+    from libero_data.record.shard import write_frames
+
+    start = time.perf_counter()
+    env = rollout_env(ctx, job)
     obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
     frames: list[dict[str, Any]] = []
     success: list[bool] = []
     for _step in range(job.max_steps):
-        action = policy.act_step(observation_batch(obs, job.task_emb))[0].numpy()
-        action = np.clip(action.astype(np.float64), -1.0, 1.0)
+        action = np.clip(np.asarray(act(obs), dtype=np.float64).reshape(-1), -1.0, 1.0)
         frame = {k: v for k, v in obs.items() if k != "object_poses"}
         frame["action"] = action.astype(np.float32)
         frames.append(frame)
@@ -236,6 +240,17 @@ def run_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
     ctx.ship(job.shard_dir)
     ctx.ship(job.rrd_path)
     return RolloutResult(job.key, reached, len(frames), time.perf_counter() - start)
+
+
+def run_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
+    """Roll the shared policy (one of libero-bench's) out once and store the rollout."""
+    assert ctx.shared is not None, "rollouts need the policy file"
+    policy_file = ctx.shared
+    policy = ctx.cache.get("policy", str(policy_file), lambda: load_policy_file(policy_file))
+    policy.reset()
+    return roll_out_and_store(
+        ctx, job, lambda obs: policy.act_step(observation_batch(obs, job.task_emb))[0].numpy()
+    )
 
 
 def worker_setup() -> None:

@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from libero_bench.cli import results, run, saliency
+from libero_bench.cli import policy, results, run, saliency
 from libero_data.cli.common import user_errors
 
 app = typer.Typer(
@@ -48,6 +48,7 @@ def orders_cmd(
 app.command("run")(run.run_cmd)
 app.command("report")(results.report_cmd)
 app.command("compare")(results.compare_cmd)
+app.command("eval")(policy.eval_cmd)
 app.command("replay")(results.replay_cmd)
 app.command("saliency")(saliency.saliency_cmd)
 

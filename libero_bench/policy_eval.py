@@ -1,0 +1,340 @@
+"""``libero-bench eval``: a trained LeRobot policy evaluated on tasks, suites, generated suites or
+robustness variants, with the benchmark's protocol and outputs.
+
+Every task is rolled out from LIBERO's stored init states (where it has them) and from held-out
+placements (``libero_data.seeding.heldout_starts``, skipping the seeds the policy's training
+demonstrations started from when its ``train_config.json`` names a libero-data dataset). Every
+rollout is stored like a demonstration (``rollouts/``: one LeRobot dataset, an MCAP log each;
+``rrd/``: a Rerun recording each); ``results.json`` lists them, and the report gives every
+task's success with n and a 95% Wilson interval. The folder resumes after an interruption.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from libero_bench.evaluate import EvalTask, RolloutJob, RolloutResult, make_job, worker_setup
+from libero_bench.intervals import Rate
+from libero_bench.run_files import HELDOUT, STARTS, STORED, RunFolder
+from libero_data.errors import InputError
+from libero_data.runtime.files import write_json, write_text
+from libero_data.runtime.folder import WorkFolder
+from libero_data.runtime.jobs import Executor, JobRunner
+
+EVAL_FORMAT = "libero-bench-eval/1"
+
+
+@dataclass(frozen=True)
+class EvalRequest:
+    """What to evaluate: a LeRobot policy folder on tasks, from how many starts of each kind."""
+
+    policy: str
+    tasks: tuple[str, ...]
+    stored: int = 20
+    heldout: int = 20
+    max_steps: int = 300
+    settle: int = 10
+
+    def __post_init__(self) -> None:
+        if not self.tasks:
+            raise InputError("no tasks to evaluate on", field="tasks")
+        for name in ("stored", "heldout"):
+            if getattr(self, name) < 0:
+                raise InputError(f"the number of {name} starts must not be negative", field=name)
+        if self.stored + self.heldout == 0:
+            raise InputError("evaluate from at least one start", field="stored")
+        if self.max_steps <= 0:
+            raise InputError("the step limit must be positive", field="max_steps")
+
+
+def resolve_tasks(refs: Sequence[str]) -> list[Any]:
+    """Tasks from references: a task (``suite/i``, ``suite/name``, a ``.bddl`` file), a suite
+    name or a suite folder (every task of it)."""
+    from libero_data.tasks import get_suite, get_task
+
+    out: list[Any] = []
+    for ref in refs:
+        try:
+            out.extend(get_suite(ref).tasks)
+        except KeyError:
+            out.append(get_task(ref))
+    names = [t.name for t in out]
+    if len(set(names)) != len(names):
+        raise InputError("the task list names a task twice", field="tasks")
+    return out
+
+
+def training_starts(policy: Path) -> tuple[str | None, dict[str, tuple[set[int], set[int]]]]:
+    """The dataset the policy was trained on (from ``train_config.json``) and, per task, where its
+    demonstrations started (stored init indices, sampler seeds); empty where it is not known."""
+    from libero_bench.data import DemoDataset
+    from libero_data.errors import LiberoDataError
+
+    path = policy / "train_config.json"
+    if not path.is_file():
+        return None, {}
+    root = (json.loads(path.read_text()).get("dataset") or {}).get("root")
+    if not root or not Path(root).is_dir():
+        return root, {}
+    try:
+        data = DemoDataset(root)
+    except LiberoDataError:
+        return root, {}
+    found = {}
+    for task in data.tasks:
+        starts = data.training_starts(task)
+        if starts is not None:
+            found[task.name] = starts
+    return root, found
+
+
+def _eval_task(task: Any, position: int, heldout: int, avoid: set[int]) -> EvalTask:
+    from libero_data.seeding import heldout_starts
+
+    inits = task.init_states() if task.init_states_path is not None else None
+    return EvalTask(
+        name=task.name,
+        language=task.language,
+        position=position,
+        env_ref=str(task.bddl_path),
+        task_emb=np.zeros(1, dtype=np.float32),
+        init_states=inits,
+        heldout=tuple(heldout_starts(task.name, heldout, avoid=avoid)),
+    )
+
+
+def _jobs(
+    request: EvalRequest, tasks: list[EvalTask], size: int, width: int, folder: RunFolder
+) -> list[RolloutJob]:
+    jobs = []
+    for task in tasks:
+        stored = request.stored if task.init_states is not None else 0
+        for start, count in ((STORED, stored), (HELDOUT, request.heldout)):
+            for r in range(count):
+                key = f"t{task.position:03d}-{'r' if start == STORED else 'h'}{r:03d}"
+                jobs.append(
+                    make_job(
+                        task,
+                        r,
+                        key=key,
+                        settle=request.settle,
+                        max_steps=request.max_steps,
+                        image_size=size,
+                        sim_state_width=width,
+                        shard_dir=folder.shard(key).relative_to(folder.root),
+                        rrd_path=folder.rrd_file(key).relative_to(folder.root),
+                        tags={"task_position": task.position, "phase": "eval", "policy": request.policy},
+                        start=start,
+                    )
+                )
+    return jobs
+
+
+def evaluate_policy(
+    request: EvalRequest,
+    out: str | Path,
+    *,
+    workers: int = 1,
+    on_result: Callable[[RolloutResult], None] | None = None,
+    on_total: Callable[[int], None] | None = None,
+) -> dict[str, Any]:
+    """Evaluate (or go on evaluating) the policy into ``out``; returns the summary."""
+    from libero_bench.lerobot_policy import policy_config, run_lerobot_rollout, serve
+    from libero_data.runtime.versions import versions
+
+    policy = Path(request.policy).resolve()
+    config = policy_config(policy)
+    inputs = serve(config.input_features, f"the {config.type} policy at {policy}")
+    tasks = resolve_tasks(request.tasks)
+    dataset, starts = training_starts(policy)
+    eval_tasks = [
+        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1]) for i, t in enumerate(tasks)
+    ]
+    width = max(
+        len(e.init_states[0]) if e.init_states is not None else _width(t)
+        for e, t in zip(eval_tasks, tasks, strict=True)
+    )
+    folder = RunFolder(Path(out).resolve())
+    settings = {
+        "format": EVAL_FORMAT,
+        "request": {**asdict(request), "policy": str(policy), "tasks": list(request.tasks)},
+        "policy_type": config.type,
+        "inputs": {k: list(v) for k, v in {**inputs.cameras, **inputs.states}.items()},
+        "tasks": [
+            {"position": e.position, "name": e.name, "language": e.language, "bddl": e.env_ref}
+            for e in eval_tasks
+        ],
+        "training_data": dataset,
+        "heldout_seeds": {t.name: list(t.heldout) for t in eval_tasks},
+    }
+    work = WorkFolder(folder.root, "policy evaluation")
+    work.claim(
+        settings,
+        name="config.json",
+        owner=folder.root,
+        advice="use the same command or another output folder",
+    )
+    results_path = folder.results
+    done = json.loads(results_path.read_text())["rollouts"] if results_path.is_file() else []
+    finished = {r["key"] for r in done if (folder.shard(r["key"]) / "episode.json").is_file()}
+    jobs = [j for j in _jobs(request, eval_tasks, inputs.render_size, width, folder) if j.key not in finished]
+    records = [r for r in done if r["key"] in finished]
+    if on_total:
+        on_total(len(jobs) + len(records))
+    WorkFolder(folder.work, "policy evaluation").clean("shards/*.tmp-*")
+    with JobRunner(Executor.processes(workers), folder.root, setup=worker_setup) as runner:
+        for i, result in runner.run(run_lerobot_rollout, jobs, shared=policy):
+            job = jobs[i]
+            records.append(_record(job, result))
+            write_json(
+                results_path, {"rollouts": records, "complete": False, "versions": versions(python=True)}
+            )
+            if on_result:
+                on_result(result)
+    summary = summarize(settings, records, starts)
+    write_json(results_path, {"rollouts": records, "complete": True, "versions": versions(python=True)})
+    _finish(folder, settings, records, summary)
+    return summary
+
+
+def _width(task: Any) -> int:
+    """The width of a task's MuJoCo state (for a task without stored init states to tell it)."""
+    from libero_data.sim import EnvConfig, LiberoEnv
+
+    with LiberoEnv(task, EnvConfig(cameras=())) as env:
+        return int(env.state_dim)
+
+
+def _record(job: RolloutJob, result: RolloutResult) -> dict[str, Any]:
+    return {
+        "key": job.key,
+        "task": job.task_name,
+        "task_position": job.tags["task_position"],
+        "start": job.start,
+        "rollout": job.tags["rollout"],
+        "init_index": job.init_index,
+        "env_seed": job.env_seed,
+        "success": result.success,
+        "steps": result.steps,
+    }
+
+
+def summarize(
+    settings: dict[str, Any], records: list[dict[str, Any]], starts: dict[str, tuple[set[int], set[int]]]
+) -> dict[str, Any]:
+    """Per task and overall, the success from each kind of start with n and its interval."""
+    rows = []
+    totals = {start: Rate(0, 0) for start in STARTS}
+    for task in settings["tasks"]:
+        row: dict[str, Any] = {"task": task["name"], "language": task["language"]}
+        for start in STARTS:
+            mine = [
+                r["success"]
+                for r in records
+                if r["task_position"] == task["position"] and r["start"] == start
+            ]
+            rate = Rate(sum(mine), len(mine))
+            totals[start] = Rate(totals[start].successes + rate.successes, totals[start].n + rate.n)
+            row[start] = rate.to_dict() if rate.n else None
+        rows.append(row)
+    notes = []
+    if settings["training_data"] is None:
+        notes.append("the policy folder has no train_config.json: held-out starts skip no training seed")
+    for task in settings["tasks"]:
+        stored, _ = starts.get(task["name"], (set(), set()))
+        evaluated = {
+            r["init_index"]
+            for r in records
+            if r["task_position"] == task["position"] and r["start"] == STORED
+        }
+        if stored & evaluated:
+            notes.append(
+                f"the training data of {task['name']} began from {len(stored & evaluated)} of the stored init "
+                "states it was evaluated from"
+            )
+    return {
+        "policy": settings["request"]["policy"],
+        "policy_type": settings["policy_type"],
+        "tasks": rows,
+        "all": {start: totals[start].to_dict() if totals[start].n else None for start in STARTS},
+        "notes": notes,
+    }
+
+
+def markdown(summary: dict[str, Any]) -> str:
+    def cell(rate: dict[str, Any] | None) -> str:
+        if rate is None:
+            return "–"
+        return f"{rate['rate']:.0%} ({rate['successes']}/{rate['n']}, {rate['low']:.0%}–{rate['high']:.0%})"
+
+    lines = [
+        f"# {summary['policy_type']} policy: success in simulation",
+        "",
+        f"Policy: `{summary['policy']}`. Success with n and 95% Wilson interval; stored: LIBERO's stored init "
+        "states (the paper's protocol); held out: placements no training demonstration started from.",
+        "",
+        "| task | stored starts | held-out starts |",
+        "|---|---:|---:|",
+    ]
+    for row in [*summary["tasks"], {"task": "**all tasks**", **summary["all"]}]:
+        lines.append(f"| {row['task']} | {cell(row[STORED])} | {cell(row[HELDOUT])} |")
+    lines += [f"\n- note: {n}" for n in summary["notes"]]
+    return "\n".join(lines) + "\n"
+
+
+def _finish(
+    folder: RunFolder, settings: dict[str, Any], records: list[dict[str, Any]], summary: dict[str, Any]
+) -> None:
+    """The rollout dataset, the report (Markdown, JSON) and its chart."""
+    from libero_bench.rollout_dataset import build_rollout_dataset
+
+    keys = sorted(r["key"] for r in records)
+    bddl = {t["name"]: Path(t["bddl"]).read_text() for t in settings["tasks"]}
+    meta = {
+        "run": folder.root.name,
+        "algo": "—",
+        "policy": settings["policy_type"],
+        "preset": "eval",
+        "seed": "—",
+        "request": {"repo_id": "libero-bench/rollouts", "suite": "eval"},
+        "tasks": settings["tasks"],
+    }
+    build_rollout_dataset(
+        [folder.shard(k) for k in keys], folder.rollouts, run_meta=meta, bddl=bddl, work_dir=folder.work
+    )
+    write_text(folder.root / "report.md", markdown(summary))
+    write_json(folder.root / "report.json", summary)
+    _chart(summary, folder.root / "success.png")
+
+
+def _chart(summary: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    rows = summary["tasks"]
+    fig, ax = plt.subplots(figsize=(1.5 + 0.9 * len(rows), 3.2), dpi=120)
+    for i, (start, colour) in enumerate(((STORED, "tab:blue"), (HELDOUT, "tab:orange"))):
+        x = np.arange(len(rows)) + (i - 0.5) * 0.38
+        y = np.array([r[start]["rate"] if r[start] else math.nan for r in rows])
+        low = np.array([r[start]["rate"] - r[start]["low"] if r[start] else 0 for r in rows])
+        high = np.array([r[start]["high"] - r[start]["rate"] if r[start] else 0 for r in rows])
+        ax.bar(x, y, width=0.38, color=colour, label=f"{start} starts")
+        ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=3)
+    ax.set_xticks(range(len(rows)), [str(i) for i in range(len(rows))])
+    ax.set_xlabel("task")
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("success (95% Wilson)")
+    ax.set_title(f"{summary['policy_type']} policy", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

@@ -1,0 +1,86 @@
+"""The ``libero_data`` environment type for LeRobot (registered on import)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+from lerobot.configs import FeatureType, PolicyFeature
+from lerobot.envs.configs import EnvConfig
+from lerobot.processor import PolicyProcessorPipeline
+from lerobot.utils.constants import ACTION, OBS_IMAGES, OBS_STATE
+
+#: The kinds of start an episode can begin from.
+STARTS = ("stored", "heldout")
+
+
+@EnvConfig.register_subclass("libero_data")
+@dataclass
+class LiberoDataEnvConfig(EnvConfig):
+    """A LIBERO or libero-data task (or a suite of them) as a LeRobot environment."""
+
+    task: str = "libero_object/0"
+    fps: int = 20
+    episode_length: int = 300  # steps before an episode is cut (LIBERO's own evaluation: 600)
+    image_size: int = 256  # square camera images, as LeRobot's LIBERO datasets
+    starts: str = "stored"  # "stored" (LIBERO's init states) or "heldout" (held-out placements)
+    agentview_key: str = "image"  # observation.images.<agentview_key>
+    wrist_key: str = "image2"  # observation.images.<wrist_key>; wrist_image for libero-data names
+    settle: int = 10  # no-op steps after a reset (LIBERO's and LeRobot's evaluations wait 10)
+    features: dict[str, PolicyFeature] = field(default_factory=dict)
+    features_map: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.starts not in STARTS:
+            raise ValueError(f"--env.starts must be {' or '.join(STARTS)}, got {self.starts!r}")
+        if self.image_size <= 0 or self.episode_length <= 0:
+            raise ValueError("--env.image_size and --env.episode_length must be positive")
+        image = PolicyFeature(type=FeatureType.VISUAL, shape=(self.image_size, self.image_size, 3))
+        self.features = {
+            ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(7,)),
+            f"pixels/{self.agentview_key}": image,
+            f"pixels/{self.wrist_key}": image,
+            "agent_pos": PolicyFeature(type=FeatureType.STATE, shape=(8,)),
+        }
+        self.features_map = {
+            ACTION: ACTION,
+            f"pixels/{self.agentview_key}": f"{OBS_IMAGES}.{self.agentview_key}",
+            f"pixels/{self.wrist_key}": f"{OBS_IMAGES}.{self.wrist_key}",
+            "agent_pos": OBS_STATE,
+        }
+
+    @property
+    def gym_kwargs(self) -> dict[str, Any]:
+        return {
+            "image_size": self.image_size,
+            "starts": self.starts,
+            "keys": (self.agentview_key, self.wrist_key),
+            "max_steps": self.episode_length,
+            "settle": self.settle,
+        }
+
+    def create_envs(
+        self, n_envs: int, use_async_envs: bool = False
+    ) -> dict[str, dict[int, gym.vector.VectorEnv]]:
+        """{suite: {task index: a vector of ``n_envs`` environments}}; environments are built
+        lazily in the process that steps them (a GL context does not survive a fork)."""
+        from lerobot_env_libero_data.env import LiberoDataGymEnv, resolve_tasks
+
+        suite, tasks = resolve_tasks(self.task)
+        out: dict[int, gym.vector.VectorEnv] = {}
+        for task in tasks:
+
+            def make(i: int, task_ref: str = task.ref) -> gym.Env:
+                return LiberoDataGymEnv(task_ref, episode_index=i, stride=n_envs, **self.gym_kwargs)
+
+            fns = [lambda i=i, make=make: make(i) for i in range(n_envs)]
+            if use_async_envs and n_envs > 1:
+                out[task.index] = gym.vector.AsyncVectorEnv(fns, context="forkserver")
+            else:
+                out[task.index] = gym.vector.SyncVectorEnv(fns)
+        return {suite: out}
+
+    def get_env_processors(self) -> tuple[PolicyProcessorPipeline, PolicyProcessorPipeline]:
+        # Images are upright and the state is LeRobot's 8-D LIBERO state already.
+        return PolicyProcessorPipeline(steps=[]), PolicyProcessorPipeline(steps=[])

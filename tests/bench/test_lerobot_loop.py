@@ -1,0 +1,175 @@
+"""LeRobot's own policies in our simulator: trained by lerobot-train on our data, evaluated by
+``libero-bench eval`` and by ``lerobot-eval`` through our environment plugin."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from libero_bench.lerobot_policy import serve
+from libero_data.errors import InputError
+
+VENV_BIN = Path(sys.executable).parent
+
+
+def _feature(kind: str, *shape: int) -> SimpleNamespace:
+    return SimpleNamespace(type=SimpleNamespace(name=kind), shape=shape)
+
+
+def test_inputs_are_served_under_either_camera_naming_and_an_unservable_one_is_named() -> None:
+    inputs = serve(
+        {
+            "observation.images.image": _feature("VISUAL", 3, 256, 256),
+            "observation.images.image2": _feature("VISUAL", 3, 128, 128),
+            "observation.state": _feature("STATE", 8),
+            "observation.sim_state": _feature("STATE", 110),
+        }
+    )
+    assert inputs.cameras == {
+        "observation.images.image": ("agentview", 256, 256),
+        "observation.images.image2": ("eye_in_hand", 128, 128),
+    }
+    assert inputs.states["observation.state"] == ("state", 8) and inputs.render_size == 256
+    assert serve({"observation.images.wrist_image": _feature("VISUAL", 3, 64, 64)}).cameras == {
+        "observation.images.wrist_image": ("eye_in_hand", 64, 64)
+    }
+    with pytest.raises(InputError, match=r"reads observation\.environment_state of shape \[16\]"):
+        serve(
+            {
+                "observation.images.image": _feature("VISUAL", 3, 64, 64),
+                "observation.environment_state": _feature("ENV", 16),
+            }
+        )
+    with pytest.raises(InputError, match=r"reads the camera observation\.images\.depth"):
+        serve({"observation.images.depth": _feature("VISUAL", 3, 64, 64)})
+
+
+def _run(*command: str, timeout: float = 900, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1", "WANDB_MODE": "disabled"}
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd)
+
+
+#: A tiny ACT (a few training steps on CPU); backbone weights are not downloaded.
+ACT = [
+    "--policy.type=act",
+    "--policy.dim_model=32",
+    "--policy.dim_feedforward=64",
+    "--policy.n_encoder_layers=1",
+    "--policy.n_decoder_layers=1",
+    "--policy.chunk_size=5",
+    "--policy.n_action_steps=5",
+]
+DIFFUSION = [
+    "--policy.type=diffusion",
+    "--policy.down_dims=[16,32]",
+    "--policy.crop_shape=null",
+    "--policy.num_inference_steps=2",
+    "--policy.horizon=8",
+    "--policy.n_action_steps=4",
+    "--policy.use_group_norm=false",
+]
+
+
+def _train(dataset: Path, out: Path, policy: list[str]) -> Path:
+    result = _run(
+        str(VENV_BIN / "lerobot-train"),
+        *policy,
+        "--policy.device=cpu",
+        "--policy.pretrained_backbone_weights=null",
+        "--policy.push_to_hub=false",
+        "--dataset.repo_id=libero-data/libero_goal",
+        f"--dataset.root={dataset}",
+        "--steps=2",
+        "--batch_size=2",
+        "--save_freq=2",
+        "--num_workers=0",
+        "--wandb.enable=false",
+        f"--output_dir={out}",
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return out / "checkpoints" / "000002" / "pretrained_model"
+
+
+@pytest.mark.sim
+def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
+    tiny_dataset: Path, procedural_suite: Path, tmp_path: Path
+) -> None:
+    import datasets
+
+    act = _train(tiny_dataset, tmp_path / "act", ACT)
+    out = tmp_path / "eval"
+    args = [
+        "--tasks",
+        "libero_goal/0",
+        "--stored",
+        "1",
+        "--heldout",
+        "1",
+        "--max-steps",
+        "5",
+        "--out",
+        str(out),
+    ]
+    result = _run(sys.executable, "-m", "libero_bench.cli", "eval", str(act), *args)
+    assert result.returncode == 0, result.stderr[-3000:]
+    report = json.loads((out / "report.json").read_text())
+    (task,) = report["tasks"]
+    for start in ("stored", "heldout"):  # every rate with n and its interval
+        assert task[start]["n"] == 1 and 0.0 <= task[start]["low"] <= task[start]["high"] <= 1.0
+    frames = datasets.load_dataset(str(out / "rollouts"), split="train")
+    assert sorted(set(frames["episode_index"])) == [0, 1]
+    assert len(list((out / "rrd").glob("*.rrd"))) == 2
+    # Held-out starts skip every seed a demonstration of the task started from.
+    config = json.loads((out / "config.json").read_text())
+    assert config["training_data"] == str(tiny_dataset)
+    demo_seeds = {
+        json.loads(line)["reset_seed"]
+        for line in (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    }
+    assert not set(config["heldout_seeds"]["open_the_middle_drawer_of_the_cabinet"]) & demo_seeds
+
+    # lerobot-eval finds our environment plugin: a shipped task and a generated one.
+    for task_ref in ("libero_goal/7", f"{procedural_suite}/0"):
+        le = _run(
+            str(VENV_BIN / "lerobot-eval"),
+            f"--policy.path={act}",
+            "--policy.device=cpu",
+            "--env.type=libero_data",
+            f"--env.task={task_ref}",
+            "--env.wrist_key=wrist_image",  # the policy learned libero-data's names
+            "--env.image_size=64",
+            "--env.episode_length=4",
+            "--eval.n_episodes=1",
+            "--eval.batch_size=1",
+            f"--output_dir={tmp_path / 'lerobot-eval' / task_ref.replace('/', '_')}",
+        )
+        assert le.returncode == 0, le.stderr[-3000:]
+        info = json.loads(
+            (tmp_path / "lerobot-eval" / task_ref.replace("/", "_") / "eval_info.json").read_text()
+        )
+        assert info["overall"]["n_episodes"] == 1
+
+    # Diffusion Policy too (its own processors, another input layout).
+    diffusion = _train(tiny_dataset, tmp_path / "diffusion", DIFFUSION)
+    other = tmp_path / "eval-diffusion"
+    args = [
+        "--tasks",
+        "libero_goal/7",
+        "--stored",
+        "1",
+        "--heldout",
+        "0",
+        "--max-steps",
+        "3",
+        "--out",
+        str(other),
+    ]
+    result = _run(sys.executable, "-m", "libero_bench.cli", "eval", str(diffusion), *args)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert json.loads((other / "report.json").read_text())["all"]["stored"]["n"] == 1
