@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_bench.run_files import RUN_FORMAT
-from libero_data.errors import InputError
+from libero_bench.run_files import RUN_FORMAT, RunFolder
+from libero_data.errors import InputError, RunError
 from libero_data.runtime.files import write_bytes
 
 if TYPE_CHECKING:
@@ -87,3 +87,34 @@ def load_initial_weights(path: Path, policy: Policy, device: torch.device, polic
             field="init_checkpoint",
         ) from None
     logger.info("policy initialised from %s", path)
+
+
+def kept_checkpoint(folder: RunFolder, config: dict[str, Any], position: int) -> Path:
+    """The checkpoint a run kept after the task at ``position`` (MTL: its one checkpoint)."""
+    from libero_bench.algos import ALGOS
+
+    index = 0 if ALGOS.get(config["algo"]).needs_all_tasks else position
+    path = folder.checkpoint(index)
+    if not path.is_file():
+        name = config["tasks"][position]["name"]
+        raise RunError(f"{folder.root} has no checkpoint after task {name} yet")
+    return path
+
+
+def policy_from_checkpoint(config: dict[str, Any], checkpoint: Path, position: int) -> tuple[Any, Any]:
+    """(policy, algorithm) of a checkpoint, in the algorithm's evaluation view of the task."""
+    import torch
+
+    from libero_bench.algos import ALGOS, algo_config_from_dict
+    from libero_bench.policies import POLICIES, config_from_dict
+
+    pconfig = config_from_dict(config["policy_config"])
+    policy = POLICIES.get(pconfig.name).from_config(pconfig)
+    state = torch.load(checkpoint, map_location="cpu", weights_only=False)
+    policy.load_state_dict(state["policy"])
+    acfg = algo_config_from_dict(config["algo_config"])
+    algo = ALGOS.get(acfg.name)(acfg)
+    algo.load_state_dict(state["algo"])
+    algo.bind(policy)
+    algo.set_eval_task(position)
+    return policy.eval(), algo

@@ -90,6 +90,7 @@ class RolloutJob:
     rrd_path: str
     tags: Mapping[str, Any]
     start: str = STORED
+    render_quality: str = "full"
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,7 @@ def make_job(
     rrd_path: str | Path,
     tags: Mapping[str, Any],
     start: str = STORED,
+    render_quality: str = "full",
 ) -> RolloutJob:
     init_state, init_index, env_seed = task.start(rollout, start)
     return RolloutJob(
@@ -132,6 +134,7 @@ def make_job(
         rrd_path=str(rrd_path),
         tags={**tags, "rollout": rollout, "start": start, "init_index": init_index, "env_seed": env_seed},
         start=start,
+        render_quality=render_quality,
     )
 
 
@@ -183,13 +186,14 @@ def observation_batch(obs: Mapping[str, Any], task_emb: np.ndarray) -> dict[str,
 
 
 def rollout_env(ctx: WorkerContext, job: RolloutJob) -> Any:
-    """The job's task environment (both cameras at the job's size), kept by the worker."""
+    """The job's task environment (both cameras at the job's size and quality), kept by the worker."""
     from libero_data.sim import EnvConfig, LiberoEnv
 
+    config = EnvConfig(image_size=job.image_size, cameras=CAMERAS, render_quality=job.render_quality)
     return ctx.cache.get(
         "env",
-        (job.env_ref, job.image_size),
-        lambda: LiberoEnv(job.env_ref, EnvConfig(image_size=job.image_size, cameras=CAMERAS)),
+        (job.env_ref, job.image_size, job.render_quality),
+        lambda: LiberoEnv(job.env_ref, config),
         close=lambda e: e.close(),
     )
 

@@ -41,8 +41,12 @@ class EvalRequest:
     heldout: int = 20
     max_steps: int = 300
     settle: int = 10
+    render_quality: str = "full"
 
     def __post_init__(self) -> None:
+        from libero_data.sim.env import check_render_quality
+
+        check_render_quality(self.render_quality)
         if not self.tasks:
             raise InputError("no tasks to evaluate on", field="tasks")
         for name in ("stored", "heldout"):
@@ -132,6 +136,7 @@ def _jobs(
                         rrd_path=folder.rrd_file(key).relative_to(folder.root),
                         tags={"task_position": task.position, "phase": "eval", "policy": request.policy},
                         start=start,
+                        render_quality=request.render_quality,
                     )
                 )
     return jobs

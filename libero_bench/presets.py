@@ -42,6 +42,7 @@ class TrainPreset(Config):
     eval_heldout: int = 20  # from held-out sampler placements no demonstration started from
     eval_max_steps: int = 600
     eval_settle: int = 10  # no-op steps after reset before the policy acts (LIBERO waits too)
+    eval_render_quality: str = "full"  # "fast": rollouts drawn from simplified meshes (libero_data.sim)
     keep_best: bool = True  # keep the checkpoint with the best success while learning a task
     demos_per_task: int | None = None  # None: all demonstrations of the task
     seed: int = 10000
@@ -66,6 +67,7 @@ class TrainPreset(Config):
         ):
             self._fail("eval_settle", "must be a non-negative integer")
         self._check_non_negative("eval_heldout")
+        self._check_choice("eval_render_quality", ("full", "fast"))
         if not isinstance(self.eval_first_epoch, bool):
             self._fail("eval_first_epoch", "must be true or false")
         if self.demos_per_task is not None and self.demos_per_task <= 0:

@@ -82,6 +82,7 @@ class EvaluationRounds:
                             "policy": self.plan.request.policy,
                         },
                         start=start,
+                        render_quality=p.eval_render_quality,
                     )
                 )
         return jobs

@@ -15,40 +15,11 @@ from typing import Any
 
 import numpy as np
 
+from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
 from libero_bench.run_files import RunFolder, find_task
 from libero_data.errors import InputError, RunError
 
 logger = logging.getLogger(__name__)
-
-
-def _checkpoint_path(folder: RunFolder, config: dict, position: int) -> Path:
-    from libero_bench.algos import ALGOS
-
-    index = 0 if ALGOS.get(config["algo"]).needs_all_tasks else position
-    path = folder.checkpoint(index)
-    if not path.is_file():
-        name = config["tasks"][position]["name"]
-        raise RunError(f"{folder.root} has no checkpoint after task {name} yet")
-    return path
-
-
-def _policy_for(config: dict, checkpoint: Path, position: int) -> tuple[Any, Any]:
-    """(policy, algorithm) of a checkpoint, in the algorithm's evaluation view of the task."""
-    import torch
-
-    from libero_bench.algos import ALGOS, algo_config_from_dict
-    from libero_bench.policies import POLICIES, config_from_dict
-
-    pconfig = config_from_dict(config["policy_config"])
-    policy = POLICIES.get(pconfig.name).from_config(pconfig)
-    state = torch.load(checkpoint, map_location="cpu", weights_only=False)
-    policy.load_state_dict(state["policy"])
-    acfg = algo_config_from_dict(config["algo_config"])
-    algo = ALGOS.get(acfg.name)(acfg)
-    algo.load_state_dict(state["algo"])
-    algo.bind(policy)
-    algo.set_eval_task(position)
-    return policy.eval(), algo
 
 
 def _episode_for(folder: RunFolder, config: dict, chosen: dict, source: str, rollout: int) -> tuple[Any, int]:
@@ -95,7 +66,9 @@ def saliency_for_run(
     chosen = find_task(config, task)
     position = int(chosen["position"])
     kept = find_task(config, after) if after is not None else chosen
-    policy, algo = _policy_for(config, _checkpoint_path(folder, config, int(kept["position"])), position)
+    policy, algo = policy_from_checkpoint(
+        config, kept_checkpoint(folder, config, int(kept["position"])), position
+    )
     languages = [t["language"] for t in config["tasks"]]
     emb = encode_tasks(languages, config["preset"]["language_encoder"])[position]
     data, episode = _episode_for(folder, config, chosen, source, rollout)

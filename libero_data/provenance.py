@@ -26,7 +26,7 @@ _PACKAGE = Path(__file__).resolve().parent
 #: (``libero_data.seeding``) are frozen instead, their values pinned by tests.
 EPISODE_CODE = ("experts", "sim")
 #: Modules inside those folders that do not decide an episode.
-NOT_EPISODE_CODE = ("experts/report.py",)
+NOT_EPISODE_CODE = ("experts/report.py", "sim/render.py", "sim/meshes.py", "sim/meshopt.py")
 
 
 @functools.cache
@@ -74,6 +74,11 @@ def compact_row(info: dict[str, Any]) -> dict[str, Any]:
     if "gl" in row:
         gl = row.pop("gl")
         row["gl_renderer"] = str(gl.get("renderer", "unknown")) if isinstance(gl, dict) else "unknown"
+    if "render" in row:
+        render = row.pop("render")
+        row["render_quality"] = (
+            str(render.get("quality", "unknown")) if isinstance(render, dict) else "unknown"
+        )
     return row
 
 
@@ -100,6 +105,57 @@ def renderers(infos: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
         entry = found.setdefault(key, {**dict(zip(names, key, strict=True)), "episodes": 0})
         entry["episodes"] += 1
     return list(found.values())
+
+
+def render_summary(infos: Iterable[dict[str, Any]], quality: str) -> dict[str, Any]:
+    """How a dataset's images were drawn: the quality, and for ``fast`` the mesh settings, the
+    triangles drawn (fewest/most over the episodes' scenes) and the measured difference from
+    full-quality images per camera (mean and max |fast - full| on a 0-1 scale, over the frames
+    compared: each episode's first and last frame)."""
+    out: dict[str, Any] = {"quality": quality}
+    renders = [i["render"] for i in infos if isinstance(i.get("render"), dict)]
+    if quality != "fast" or not renders:
+        return out
+    out["settings"] = renders[0].get("settings", {})
+    before = [int(r["faces_before"]) for r in renders if "faces_before" in r]
+    after = [int(r["faces_after"]) for r in renders if "faces_after" in r]
+    if before and after:
+        out["triangles_drawn"] = {"full": [min(before), max(before)], "fast": [min(after), max(after)]}
+    totals: dict[str, dict[str, float]] = {}
+    for r in renders:
+        for camera, d in (r.get("difference") or {}).items():
+            t = totals.setdefault(camera, {"sum": 0.0, "max": 0.0, "values": 0.0, "frames": 0})
+            t["sum"] += float(d["sum"])
+            t["max"] = max(t["max"], float(d["max"]))
+            t["values"] += float(d["values"])
+            t["frames"] += int(d.get("frames", 0))
+    out["difference"] = {
+        camera: {
+            "mean_abs": round(t["sum"] / max(t["values"], 1.0) / 255.0, 5),
+            "max_abs": round(t["max"] / 255.0, 4),
+            "frames": int(t["frames"]),
+        }
+        for camera, t in sorted(totals.items())
+    }
+    return out
+
+
+def render_line(summary: dict[str, Any]) -> str:
+    """The card's "render quality" row."""
+    if summary.get("quality") != "fast":
+        return "full: LIBERO's own renderer, pixel for pixel"
+    settings = summary.get("settings", {})
+    line = f"fast: simplified visual meshes (surface error at most {1000 * float(settings.get('max_error', 0)):.2g} mm"
+    drawn = summary.get("triangles_drawn")
+    if drawn:
+        line += f"; {drawn['full'][1] / 1000:.0f} k -> {drawn['fast'][1] / 1000:.0f} k triangles per scene at most"
+    line += ")"
+    diffs = summary.get("difference", {})
+    if diffs:
+        parts = [f"{camera} mean {d['mean_abs']:.4f}, max {d['max_abs']:.3f}" for camera, d in diffs.items()]
+        frames = max(int(d["frames"]) for d in diffs.values())
+        line += f"; |fast - full| on a 0-1 scale over {frames} frames: " + "; ".join(parts)
+    return line
 
 
 def card_settings(

@@ -20,6 +20,7 @@ def render_initial_scene(
     init: int = 0,
     seed: int = 0,
     renderer: str | None = None,
+    render_quality: str = "full",
 ) -> Path:
     """Render the task's initial scene from stored init state ``init`` and save a PNG.
 
@@ -37,7 +38,7 @@ def render_initial_scene(
             raise InputError(f"task {task.id} has init states 0..{len(states) - 1}, not {init}", field="init")
         state = states[init]
     out = Path(out)
-    with LiberoEnv(task, EnvConfig(image_size=size, renderer=renderer)) as env:
+    with LiberoEnv(task, EnvConfig(image_size=size, renderer=renderer, render_quality=render_quality)) as env:
         obs = env.reset(state, seed=seed)
         picture = np.concatenate([obs["agentview"], obs["eye_in_hand"]], axis=1)
     png = io.BytesIO()

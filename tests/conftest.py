@@ -49,6 +49,16 @@ def _built_once(tmp_path_factory: pytest.TempPathFactory, name: str, make: Calla
     return out
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _mesh_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Simplified meshes (render_quality="fast") are cached in the run's temporary folder, shared
+    by the xdist workers and the command-line tools they start, never in the user's cache."""
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    os.environ["LIBERO_DATA_CACHE"] = str(root / "libero-data-cache")
+
+
 @pytest.fixture(scope="session")
 def tiny_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two libero_goal tasks, one expert episode each, 64x64 images (~1.5 min to make); shared

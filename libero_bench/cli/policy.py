@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from libero_data.cli.common import progress, say, split_list, user_errors
+from libero_data.cli.common import RenderQuality, progress, say, split_list, user_errors
 
 
 @user_errors
@@ -43,6 +43,7 @@ def eval_cmd(
         int, typer.Option("--max-steps", help="Steps before a rollout is cut.", min=1)
     ] = 300,
     workers: Annotated[int, typer.Option("--workers", "-w", help="Parallel rollout processes.", min=1)] = 1,
+    render_quality: RenderQuality = "full",
 ) -> None:
     """Evaluate a LeRobot policy (ACT, Diffusion Policy, ...) in simulation: every rollout stored, success with intervals.
 
@@ -53,7 +54,9 @@ def eval_cmd(
     os.environ.setdefault("SVT_LOG", "1")
     from libero_bench.policy_eval import EvalRequest, evaluate_policy, markdown
 
-    request = EvalRequest(str(policy), tuple(split_list(tasks)), stored, heldout, max_steps)
+    request = EvalRequest(
+        str(policy), tuple(split_list(tasks)), stored, heldout, max_steps, render_quality=render_quality
+    )
     with progress("succeeded") as bar:
         job = bar.add_task("rollouts", total=None, succeeded="")
         wins = {"yes": 0, "all": 0}

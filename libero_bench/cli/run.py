@@ -65,6 +65,14 @@ def run_cmd(
         list[str] | None,
         typer.Option("--set", help="Override a preset field, e.g. --set eval_rollouts=5 (repeatable)."),
     ] = None,
+    render_quality: Annotated[
+        str | None,
+        typer.Option(
+            "--render-quality",
+            help="Images of the evaluation rollouts: 'full' (LIBERO's renderer) or 'fast' (simplified meshes); "
+            "default: the preset's (full). Same as --set eval_render_quality=...",
+        ),
+    ] = None,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
@@ -80,7 +88,8 @@ def run_cmd(
 
     limit_malloc_arenas()  # rollouts run in this process with --workers 0
     Executor(executor, workers, ray_address)  # checked before any work
-    chosen = get_preset(preset).with_overrides(overrides or [])
+    quality = [f"eval_render_quality={render_quality}"] if render_quality is not None else []
+    chosen = get_preset(preset).with_overrides([*(overrides or []), *quality])
     check_device(device)
     check_out_folder(out)
     torch.set_num_threads(threads)

@@ -32,6 +32,21 @@ def _cell(text: str) -> str:
 CAMERA_WORDS = {"agentview": "agentview", "eye_in_hand": "eye-in-hand"}
 
 
+#: What the card says of images drawn at full render quality (LIBERO's renderer as it is).
+FULL_IMAGE_NOTE = (
+    "They equal, pixel for pixel, what LIBERO's own `OffScreenRenderEnv` renders for the same state, turned "
+    "upright (rotated by 180°: `image[::-1, ::-1]` of LIBERO's arrays). LIBERO's `env.step` instead returns "
+    "images of the scene two physics substeps (4 ms) before the state it returns with them."
+)
+#: ... and at fast render quality.
+FAST_IMAGE_NOTE = (
+    "They are drawn at `fast` render quality: the same scene, cameras and lights as LIBERO's own "
+    "`OffScreenRenderEnv` (turned upright), but from simplified copies of the visual meshes, so they differ "
+    "from LIBERO's images by the amounts measured on this dataset's frames (settings table, render quality). "
+    "`libero-data rerender --render-quality full` draws LIBERO's exact images from the same states."
+)
+
+
 def render_card(
     *,
     title: str,
@@ -49,6 +64,7 @@ def render_card(
     start_note: str,
     expert_note: str = "",
     camera_keys: dict[str, str] | None = None,
+    image_note: str = FULL_IMAGE_NOTE,
 ) -> str:
     """The card text; every number comes from the caller (nothing is guessed here)."""
     from libero_data.record.features import CAMERA_KEYS
@@ -87,6 +103,7 @@ def render_card(
         settings_rows=settings_rows,
         start_note=start_note,
         expert_note=expert_note,
+        image_note=image_note,
     )
 
 

@@ -16,6 +16,7 @@ import typer
 from libero_data.cli.common import (
     ExecutorKind,
     RayAddress,
+    RenderQuality,
     Seed,
     Workers,
     fail,
@@ -158,6 +159,7 @@ def generate_cmd(
     image_size: GenImageSize = None,
     features: Features = "libero-data",
     starts: Starts = "sampler",
+    render_quality: RenderQuality = "full",
     workers: Workers = 1,
     seed: Seed = 0,
     max_attempts: MaxAttempts = 8,
@@ -199,6 +201,7 @@ def generate_cmd(
         repo_id=repo_id,
         starts=starts,
         features=features,
+        render_quality=render_quality,
     )
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     say(

@@ -9,7 +9,7 @@ from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import Workers, say, split_list, user_errors
+from libero_data.cli.common import RenderQuality, Workers, say, split_list, user_errors
 from libero_data.cli.generate import Features, GenImageSize, KeepWork, episodes_with_progress
 
 
@@ -27,6 +27,7 @@ def rerender_cmd(
             "--cameras", help="Cameras to render: agentview, eye_in_hand (comma-separate); default both."
         ),
     ] = None,
+    render_quality: RenderQuality = "full",
     workers: Workers = 1,
     keep_work: KeepWork = False,
 ) -> None:
@@ -41,9 +42,14 @@ def rerender_cmd(
     os.environ.setdefault("SVT_LOG", "1")
     size = image_size or PROFILE_IMAGE_SIZE.get(features, 128)
     chosen = tuple(split_list(cameras)) or CAMERAS
-    request = rerender_request(dataset.resolve(), image_size=size, features=features, cameras=chosen)
+    request = rerender_request(
+        dataset.resolve(), image_size=size, features=features, cameras=chosen, render_quality=render_quality
+    )
     command = "libero-data rerender " + " ".join(shlex.quote(a) for a in sys.argv[2:])
-    say(f"re-rendering {dataset} at {size}x{size} ({', '.join(chosen)}; {features} names) into {out}")
+    say(
+        f"re-rendering {dataset} at {size}x{size} ({', '.join(chosen)}; {features} names; "
+        f"{render_quality} quality) into {out}"
+    )
     episodes_with_progress(
         lambda show: rerender(
             dataset,
@@ -51,6 +57,7 @@ def rerender_cmd(
             image_size=size,
             features=features,
             cameras=chosen,
+            render_quality=render_quality,
             workers=workers,
             on_progress=show,
             command=command,

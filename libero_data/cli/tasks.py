@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import console, say, user_errors
+from libero_data.cli.common import RenderQuality, console, say, user_errors
 
 
 @user_errors
@@ -75,6 +75,7 @@ def show_cmd(
         typer.Option("--renderer", help="egl or osmesa; default: $MUJOCO_GL, else the first available."),
     ] = None,
     bddl: Annotated[bool, typer.Option("--bddl/--no-bddl", help="Print the task's BDDL.")] = True,
+    render_quality: RenderQuality = "full",
 ) -> None:
     """Render a task's initial scene (agentview and eye-in-hand side by side) and print its BDDL."""
     from libero_data.scene import render_initial_scene
@@ -83,7 +84,15 @@ def show_cmd(
     resolved = get_task(task)
     target = out or Path(f"{resolved.name}.png")
     with console().status("building the scene (first time: ~10 s)"):
-        path = render_initial_scene(resolved, target, size=size, init=init, seed=seed, renderer=renderer)
+        path = render_initial_scene(
+            resolved,
+            target,
+            size=size,
+            init=init,
+            seed=seed,
+            renderer=renderer,
+            render_quality=render_quality,
+        )
     if bddl:
         say(resolved.bddl_path.read_text())
     say(f"task: {resolved.id}  {resolved.language}")

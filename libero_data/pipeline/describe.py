@@ -28,6 +28,7 @@ def describe_dataset(
     """The dataset's metadata, its tasks' BDDL texts and its card."""
     from libero_data import provenance
     from libero_data.cards import render_card
+    from libero_data.cards.card import FAST_IMAGE_NOTE, FULL_IMAGE_NOTE
     from libero_data.runtime.versions import versions
     from libero_data.tasks import get_suite
 
@@ -36,6 +37,7 @@ def describe_dataset(
     frames = sum(int(info["length"]) for info in infos)
     codes = {str(info.get("expert_code", "unknown")) for info in infos}
     machines, renderers = provenance.machines(infos), provenance.renderers(infos)
+    render = provenance.render_summary(infos, request.render_quality)
     keys_in = {p.name for p in shards}
     tasks = []
     bddl = {}
@@ -56,6 +58,7 @@ def describe_dataset(
         "seed": str(request.seed),
         "starts": START_WORDS[request.starts],
         "feature names": request.features,
+        "render quality": provenance.render_line(render),
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         "complete": "yes" if complete else "no (generation still running or interrupted)",
@@ -81,6 +84,7 @@ def describe_dataset(
         settings=settings,
         start_note=start_note(request.starts, request.episodes_per_task),
         camera_keys=request.layout.camera_keys,
+        image_note=FAST_IMAGE_NOTE if request.render_quality == "fast" else FULL_IMAGE_NOTE,
     )
     meta = {
         "request": request.to_dict(),
@@ -88,6 +92,7 @@ def describe_dataset(
         "expert_code": sorted(codes),
         "machines": machines,
         "renderers": renderers,
+        "render": render,
         "complete": complete,
         "sim_state_width": width,
         "tasks": [_task_meta(t) for t in tasks],
@@ -203,6 +208,8 @@ def suite_card(
         "image size": f"{image_size}×{image_size}",
         "seed": str(seed),
         "starts": START_WORDS[request.starts],
+        "render quality": "full: LIBERO's own renderer, pixel for pixel (`--render-quality fast` draws "
+        "simplified visual meshes and states their measured difference)",
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
         **{f"version: {k}": v for k, v in versions().items()},

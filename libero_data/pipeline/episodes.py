@@ -57,7 +57,11 @@ class EpisodeDone:
 
 
 def expert_env(
-    cache: WorkerCache, task: Any, image_size: int, cameras: tuple[str, ...] = CAMERAS
+    cache: WorkerCache,
+    task: Any,
+    image_size: int,
+    cameras: tuple[str, ...] = CAMERAS,
+    render_quality: str = "full",
 ) -> tuple[Any, Any]:
     """(env, expert) of ``task`` at ``image_size`` from the worker's cache, built when it changed.
 
@@ -70,10 +74,11 @@ def expert_env(
     from libero_data.sim import EnvConfig, LiberoEnv
 
     def build() -> tuple[Any, Any]:
-        env = LiberoEnv(task, EnvConfig(image_size=image_size, cameras=cameras))
+        config = EnvConfig(image_size=image_size, cameras=cameras, render_quality=render_quality)
+        env = LiberoEnv(task, config)
         return env, Expert(env, ExpertConfig())
 
-    key = (str(task.suite), int(task.index), int(image_size), cameras)
+    key = (str(task.suite), int(task.index), int(image_size), cameras, render_quality)
     return cache.get("env", key, build, close=lambda pair: pair[0].close())
 
 
@@ -156,6 +161,10 @@ def _final_state(env: Any, record: dict[str, Any]) -> np.ndarray:
     return np.asarray(env.get_state())
 
 
+def _render_settings(request: GenerateRequest) -> tuple[int, tuple[str, ...], str]:
+    return request.image_size, tuple(request.cameras), request.render_quality
+
+
 def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
     """Search and record the job's episodes (a :mod:`~libero_data.runtime.jobs` job).
 
@@ -196,12 +205,12 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             if search.is_file():
                 record = load_record(search)
             else:
-                env, expert = expert_env(ctx.cache, task, request.image_size, tuple(request.cameras))
+                env, expert = expert_env(ctx.cache, task, *_render_settings(request))
                 record = search_slot(env, expert, task, request, slot)
                 save_record(search, record)
             finishing = None
             if record["success"] and not shard.is_dir():
-                env, _expert = expert_env(ctx.cache, task, request.image_size, tuple(request.cameras))
+                env, _expert = expert_env(ctx.cache, task, *_render_settings(request))
                 env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
                 finish = render_shard(
                     shard,

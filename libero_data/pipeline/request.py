@@ -13,6 +13,7 @@ from pathlib import Path
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.record.features import CAMERAS, FeatureLayout
+from libero_data.sim.env import check_render_quality
 
 #: LIBERO's stored init states per task; with ``starts="stored"``, episode k < 50 of a task
 #: starts from init state k.
@@ -22,7 +23,13 @@ STORED_INITS = 50
 #: the ones the paper's evaluation uses) and the sampler beyond the 50th episode.
 STARTS = ("sampler", "stored")
 #: What requests made before a field existed did (read from their saved ``request.json``).
-LEGACY_REQUEST = {"starts": "stored", "features": "libero-data", "cameras": list(CAMERAS), "source": ""}
+LEGACY_REQUEST = {
+    "starts": "stored",
+    "features": "libero-data",
+    "cameras": list(CAMERAS),
+    "source": "",
+    "render_quality": "full",
+}
 
 
 @dataclass(frozen=True)
@@ -40,6 +47,7 @@ class GenerateRequest(Config):
     features: str = "libero-data"  # the naming profile (libero_data.record.features.PROFILES)
     cameras: tuple[str, ...] = CAMERAS
     source: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
+    render_quality: str = "full"  # libero_data.sim.env.RENDER_QUALITIES
 
     def __post_init__(self) -> None:
         if self.episodes_per_task < 1:
@@ -58,6 +66,7 @@ class GenerateRequest(Config):
         if self.starts not in STARTS:
             raise InputError(f"starts must be {' or '.join(STARTS)}, got {self.starts!r}", field="starts")
         FeatureLayout(self.features, tuple(self.cameras), self.image_size)  # checks profile and cameras
+        check_render_quality(self.render_quality)
 
     @property
     def layout(self) -> FeatureLayout:
@@ -96,6 +105,7 @@ def resolve_request(
     starts: str = "sampler",
     features: str = "libero-data",
     cameras: tuple[str, ...] = CAMERAS,
+    render_quality: str = "full",
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
     from libero_data.tasks import get_suite
@@ -119,6 +129,7 @@ def resolve_request(
         starts=starts,
         features=features,
         cameras=tuple(cameras),
+        render_quality=render_quality,
     )
 
 

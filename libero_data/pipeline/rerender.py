@@ -30,7 +30,7 @@ GIVEN_UP = "given up when the source dataset was made"
 
 
 def rerender_request(
-    source: Path, *, image_size: int, features: str, cameras: tuple[str, ...]
+    source: Path, *, image_size: int, features: str, cameras: tuple[str, ...], render_quality: str = "full"
 ) -> GenerateRequest:
     """The source dataset's request with the new rendering settings."""
     meta_path = source / "meta" / "libero.json"
@@ -43,7 +43,11 @@ def rerender_request(
         )
     request = GenerateRequest.from_dict({**LEGACY_REQUEST, **saved["request"]})
     return request.replace(
-        image_size=image_size, features=features, cameras=tuple(cameras), source=str(source.resolve())
+        image_size=image_size,
+        features=features,
+        cameras=tuple(cameras),
+        source=str(source.resolve()),
+        render_quality=render_quality,
     )
 
 
@@ -92,6 +96,7 @@ def rerender(
     image_size: int,
     features: str = "libero-data",
     cameras: tuple[str, ...] = ("agentview", "eye_in_hand"),
+    render_quality: str = "full",
     workers: int = 1,
     on_progress: Callable[[Progress], None] | None = None,
     command: str = "",
@@ -101,7 +106,9 @@ def rerender(
     source, out = Path(source).resolve(), Path(out).resolve()
     if source == out:
         raise DatasetError(f"{out} is the source dataset; choose another output folder")
-    request = rerender_request(source, image_size=image_size, features=features, cameras=cameras)
+    request = rerender_request(
+        source, image_size=image_size, features=features, cameras=cameras, render_quality=render_quality
+    )
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     if not (out / "meta" / "libero.json").is_file():  # not finished before
         with folder.locked(owner=out):

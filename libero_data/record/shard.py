@@ -35,23 +35,46 @@ def render_frames(
     actions: np.ndarray,
     final_state: np.ndarray,
     success: list[bool] | None = None,
+    render: dict[str, Any] | None = None,
 ) -> Iterator[dict[str, Any]]:
     """Observations (with images) of every stored state, one at a time as they are rendered.
 
     ``success``, when given, receives whether the goal holds after each action, once the
-    last frame has been taken.
+    last frame has been taken. ``render``, when given, receives how the images were drawn
+    (:meth:`LiberoEnv.render_scene`); for ``fast`` images also their measured difference from
+    full-quality images of the episode's first and last frame (``difference``).
     """
     holds: list[bool] = []
-    for state, action in zip(states, actions, strict=True):
+    difference: dict[str, dict[str, float]] = {}
+    measured = {0, len(states) - 1} if env.config.render_quality == "fast" else set()
+    for i, (state, action) in enumerate(zip(states, actions, strict=True)):
         env.set_state(state)
         obs = env.observe(render=True)
         obs["action"] = np.asarray(action, dtype=np.float32)
+        if i in measured:
+            add_difference(difference, env, obs)
         holds.append(env.success())
         yield obs
     env.set_state(final_state)
     holds.append(env.success())
     if success is not None:
         success.extend(holds[1:])
+    if render is not None:
+        render.update(env.render_scene())
+        if difference:
+            render["difference"] = difference
+
+
+def add_difference(totals: dict[str, dict[str, float]], env: LiberoEnv, obs: dict[str, Any]) -> None:
+    """Add the per-pixel |fast - full| of this frame's images (0-255) to ``totals`` per camera:
+    ``sum``, ``max``, the number of ``values`` compared and of ``frames``."""
+    for camera in env.config.cameras:
+        delta = np.abs(obs[camera].astype(np.int16) - env.render_full(camera).astype(np.int16))
+        entry = totals.setdefault(camera, {"sum": 0.0, "max": 0.0, "values": 0.0, "frames": 0.0})
+        entry["sum"] += float(delta.sum())
+        entry["max"] = max(entry["max"], float(delta.max()))
+        entry["values"] += float(delta.size)
+        entry["frames"] += 1.0
 
 
 def render_shard(
@@ -76,9 +99,12 @@ def render_shard(
     episode is searched. Until it has run, nothing is at ``out_dir``.
     """
     success: list[bool] = []
+    render: dict[str, Any] = {}
+    if env.config.render_quality != "full":
+        info = {**info, "render": render}  # filled in as the frames are rendered
     return _start(
         Path(out_dir),
-        frames=render_frames(env, states, actions, final_state, success),
+        frames=render_frames(env, states, actions, final_state, success, render),
         length=len(states),
         success=success,
         task=task,

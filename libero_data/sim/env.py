@@ -27,9 +27,20 @@ log = logging.getLogger(__name__)
 #: Our camera names -> robosuite camera names.
 CAMERAS: dict[str, str] = {"agentview": "agentview", "eye_in_hand": "robot0_eye_in_hand"}
 ACTION_DIM = 7
+#: How images are drawn: ``full`` is LIBERO's renderer as it is (pixel for pixel); ``fast``
+#: draws simplified visual meshes (libero_data.sim.render), measured close to ``full``.
+RENDER_QUALITIES = ("full", "fast")
 #: Zero motion, gripper open.
 NOOP_ACTION = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0])
 STATE_DIM = 8
+
+
+def check_render_quality(value: str) -> None:
+    """Raise :class:`InputError` unless ``value`` is one of :data:`RENDER_QUALITIES`."""
+    if value not in RENDER_QUALITIES:
+        raise InputError(
+            f"render quality must be {' or '.join(RENDER_QUALITIES)}, got {value!r}", field="render_quality"
+        )
 
 
 @dataclass(frozen=True)
@@ -38,13 +49,17 @@ class EnvConfig:
 
     ``cameras`` may be empty: no renderer is created and stepping costs physics only, which
     is what searching for demonstrations wants. ``renderer`` is ``"egl"``, ``"osmesa"`` or
-    ``None`` (``$MUJOCO_GL``, else the first available).
+    ``None`` (``$MUJOCO_GL``, else the first available). ``render_quality`` is ``"full"``
+    (LIBERO's images, pixel for pixel) or ``"fast"`` (simplified visual meshes, cached under
+    ``mesh_cache``, default ``$LIBERO_DATA_CACHE`` or the user's cache folder).
     """
 
     image_size: int = 128
     cameras: tuple[str, ...] = ("agentview", "eye_in_hand")
     renderer: str | None = None
     control_freq: int = 20
+    render_quality: str = "full"
+    mesh_cache: str | None = None
 
     def __post_init__(self) -> None:
         if not 16 <= self.image_size <= 2048:
@@ -53,6 +68,7 @@ class EnvConfig:
             raise InputError(f"control_freq must be positive, got {self.control_freq}", field="control_freq")
         if len(set(self.cameras)) != len(self.cameras):
             raise InputError(f"cameras must not repeat: {self.cameras}", field="cameras")
+        check_render_quality(self.render_quality)
 
 
 class LiberoEnv:
@@ -81,6 +97,7 @@ class LiberoEnv:
         self._gl_info: dict[str, str] | None = None
         self._env = self._build()
         self._trim_step()
+        self._fast: Any = None  # libero_data.sim.render.FastImages with render_quality="fast"
         model_cameras = set(self._env.sim.model.camera_names)
         for name in unknown:
             if name not in model_cameras:
@@ -89,6 +106,11 @@ class LiberoEnv:
                     f"unknown camera {name!r}; choose from {sorted(CAMERAS)} or {sorted(model_cameras)}",
                     field="cameras",
                 )
+        if self.config.cameras and self.config.render_quality == "fast":
+            from libero_data.sim.render import FastImages
+
+            ids = [self._camera_id(c) for c in self.config.cameras]
+            self._fast = FastImages(self.config.image_size, ids, self.backend, self.config.mesh_cache)
         self._closed = False
 
     # construction ---------------------------------------------------------------------
@@ -102,7 +124,8 @@ class LiberoEnv:
                 f"unknown LIBERO problem {self.problem.problem!r} (known: {known})",
                 source=str(self.bddl_path),
             )
-        cameras = bool(self.config.cameras)
+        # With "fast" images robosuite's renderer is never used (ours draws them).
+        cameras = bool(self.config.cameras) and self.config.render_quality == "full"
         return TASK_MAPPING[key](
             bddl_file_name=str(self.bddl_path),
             robots=["Panda"],
@@ -262,9 +285,11 @@ class LiberoEnv:
 
     # observations -----------------------------------------------------------------------
     def render(self, camera: str) -> np.ndarray:
-        """One upright RGB image from ``camera`` at the configured size."""
+        """One upright RGB image from ``camera`` at the configured size and render quality."""
         if not self.config.cameras:
             raise RuntimeError("this environment was built without cameras (EnvConfig.cameras=())")
+        if self._fast is not None:
+            return self._fast.render(self.sim.model._model, self.sim.data._data, self._camera_id(camera))
         size = self.config.image_size
         sim = self._env.sim
         # robosuite renders into whichever OpenGL context is current, and creating another
@@ -276,6 +301,22 @@ class LiberoEnv:
         # rotating by 180 degrees gives the upright view (as LeRobot's LIBERO processing does).
         return np.ascontiguousarray(image[::-1, ::-1])
 
+    def render_full(self, camera: str) -> np.ndarray:
+        """``camera``'s image at full quality (LIBERO's pixels), whatever the render quality.
+
+        The reference that ``fast`` images are measured against.
+        """
+        if self._fast is None:
+            return self.render(camera)
+        return self._fast.render_full(self.sim.model._model, self.sim.data._data, self._camera_id(camera))
+
+    def render_scene(self) -> dict[str, Any]:
+        """How images are drawn: the quality, and for ``fast`` the triangles drawn and settings."""
+        return {"quality": "full"} if self._fast is None else self._fast.info()
+
+    def _camera_id(self, camera: str) -> int:
+        return int(self.sim.model.camera_name2id(CAMERAS.get(camera, camera)))
+
     def gl_info(self) -> dict[str, str] | None:
         """The OpenGL vendor, renderer and version that draw this environment's images.
 
@@ -284,16 +325,13 @@ class LiberoEnv:
         """
         if not self.config.cameras:
             return None
+        if self._gl_info is None and self._fast is not None:
+            self._gl_info = self._fast.gl_info(self.sim.model._model)
         if self._gl_info is None:
-            from OpenGL import GL
+            from libero_data.sim.render import gl_strings
 
             self._env.sim._render_context_offscreen.gl_ctx.make_current()
-            self._gl_info = {
-                "backend": str(self.backend),
-                "vendor": GL.glGetString(GL.GL_VENDOR).decode(errors="replace"),
-                "renderer": GL.glGetString(GL.GL_RENDERER).decode(errors="replace"),
-                "version": GL.glGetString(GL.GL_VERSION).decode(errors="replace"),
-            }
+            self._gl_info = gl_strings(self.backend)
         return dict(self._gl_info)
 
     def observe(self, *, render: bool = True) -> dict[str, Any]:
@@ -345,6 +383,9 @@ class LiberoEnv:
 
     # lifetime ---------------------------------------------------------------------------
     def close(self) -> None:
+        fast = self.__dict__.pop("_fast", None)
+        if fast is not None:
+            fast.close()
         if getattr(self, "_closed", True) is False or hasattr(self, "_env"):
             env = self.__dict__.pop("_env", None)
             if env is not None:

@@ -28,12 +28,15 @@ class LiberoDataEnvConfig(EnvConfig):
     agentview_key: str = "image"  # observation.images.<agentview_key>
     wrist_key: str = "image2"  # observation.images.<wrist_key>; wrist_image for libero-data names
     settle: int = 10  # no-op steps after a reset (LIBERO's and LeRobot's evaluations wait 10)
+    render_quality: str = "full"  # "fast": simplified visual meshes (libero-data's render_quality)
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.starts not in STARTS:
             raise ValueError(f"--env.starts must be {' or '.join(STARTS)}, got {self.starts!r}")
+        if self.render_quality not in ("full", "fast"):
+            raise ValueError(f"--env.render_quality must be full or fast, got {self.render_quality!r}")
         if self.image_size <= 0 or self.episode_length <= 0:
             raise ValueError("--env.image_size and --env.episode_length must be positive")
         image = PolicyFeature(type=FeatureType.VISUAL, shape=(self.image_size, self.image_size, 3))
@@ -58,6 +61,7 @@ class LiberoDataEnvConfig(EnvConfig):
             "keys": (self.agentview_key, self.wrist_key),
             "max_steps": self.episode_length,
             "settle": self.settle,
+            "render_quality": self.render_quality,
         }
 
     def create_envs(

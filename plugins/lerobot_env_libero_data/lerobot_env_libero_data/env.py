@@ -60,6 +60,7 @@ class LiberoDataGymEnv(gym.Env):
         keys: tuple[str, str] = ("image", "image2"),
         max_steps: int = 300,
         settle: int = 10,
+        render_quality: str = "full",
     ) -> None:
         from libero_data.tasks import get_task
 
@@ -70,6 +71,7 @@ class LiberoDataGymEnv(gym.Env):
         self.render_mode = "rgb_array"
         self._max_episode_steps = max_steps
         self._image_size, self._starts, self._keys, self._settle = image_size, starts, keys, settle
+        self._render_quality = render_quality
         self._next = episode_index
         self._stride = stride
         self._env: Any = None
@@ -106,7 +108,8 @@ class LiberoDataGymEnv(gym.Env):
 
         super().reset(seed=seed)
         if self._env is None:  # built here, in the process that steps it
-            self._env = LiberoEnv(self._task, EnvConfig(image_size=self._image_size))
+            config = EnvConfig(image_size=self._image_size, render_quality=self._render_quality)
+            self._env = LiberoEnv(self._task, config)
         state, env_seed = self._start(self._next)
         self._next += self._stride
         obs = self._env.reset(state, seed=env_seed, settle=self._settle)

@@ -1,0 +1,272 @@
+"""``render_quality="fast"`` against LIBERO's own renderer: speed, image difference, encoding error.
+
+For each scene (one task of each of the five suites) and image size, in one process:
+
+- **speed**: rendered steps (``step`` of a no-op action, both cameras) of LIBERO's
+  ``OffScreenRenderEnv`` (the baseline) and of ``LiberoEnv`` at ``fast`` quality, and a step
+  of ``LiberoEnv`` without cameras (physics); medians of ``--reps`` rounds of ``--frames``
+  steps taking turns, so a change in the machine's load hits every measurement alike;
+- **image difference**: ``fast`` against ``full`` images of the same states (the stored init
+  state and the states along ``--states`` steps of a scripted push), mean and max |d| per
+  camera on a 0-1 scale; ``full`` is drawn by the fast environment's reference renderer, which
+  gives LIBERO's pixels exactly (``tests/sim/test_fast_render.py``);
+- **encoding error**: the same ``full`` frames through the datasets' video encoder (LeRobot's
+  AV1 settings) and back, mean |d| per camera: the error every dataset frame already carries.
+
+Prints Markdown and, with ``--results``, replaces the "Fast rendering" section of
+``benchmarks/RESULTS.md``. The simplified-mesh cache is built first (and timed) in a fresh
+folder, so the run measures building it too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("SVT_LOG", "1")
+
+import numpy as np
+
+NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
+PUSH = np.array([0.3, -0.2, -0.25, 0.0, 0.0, 0.1, -1.0])
+CAMERAS = ("agentview", "eye_in_hand")
+TASKS = "libero_spatial/0,libero_object/0,libero_goal/0,libero_10/0,libero_90/0"
+
+
+def _median_seconds(fns: dict[str, Any], before: dict[str, Any], frames: int, reps: int) -> dict[str, float]:
+    for name, fn in fns.items():  # warm-up
+        before.get(name, lambda: None)()
+        fn()
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    for _ in range(reps):
+        for name, fn in fns.items():
+            before.get(name, lambda: None)()
+            start = time.perf_counter()
+            for _ in range(frames):
+                fn()
+            times[name].append((time.perf_counter() - start) / frames)
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
+def encoding_error(frames: list[np.ndarray]) -> float:
+    """Mean |decoded - original| (0-1) of ``frames`` through the datasets' video encoder."""
+    import av
+
+    from libero_data.record.encoder import EpisodeVideoEncoder
+
+    with tempfile.TemporaryDirectory() as tmp:
+        encoder = EpisodeVideoEncoder(fps=20)
+        encoder.start_episode(["camera"], Path(tmp))
+        for frame in frames:
+            encoder.feed_frame("camera", frame)
+        path, _ = encoder.finish_episode()["camera"]
+        with av.open(str(path)) as container:
+            decoded = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
+    return float(
+        np.mean([np.abs(d.astype(np.int16) - f).mean() for d, f in zip(decoded, frames, strict=True)]) / 255
+    )
+
+
+def measure(ref: str, size: int, frames: int, reps: int, states: int, cache: str) -> dict[str, Any]:
+    from libero.libero.envs import OffScreenRenderEnv
+
+    from libero_data.sim import EnvConfig, LiberoEnv
+    from libero_data.tasks import get_task
+
+    task = get_task(ref)
+    init = task.init_states()[0]
+    out: dict[str, Any] = {"task": ref, "size": size}
+    with (
+        LiberoEnv(task, EnvConfig(image_size=size, render_quality="fast", mesh_cache=cache)) as fast,
+        LiberoEnv(task, EnvConfig(cameras=())) as physics,
+    ):
+        fast.reset(init, seed=0, render=False)
+        physics.reset(init, seed=0, render=False)
+        start = time.perf_counter()
+        fast.render("agentview")  # builds the simplified renderer (meshes from the cache)
+        out["build_s"] = time.perf_counter() - start
+        out.update({k: v for k, v in fast.render_scene().items() if k.startswith("faces")})
+        # Image difference and encoding error on the same states.
+        full_frames: dict[str, list[np.ndarray]] = {c: [] for c in CAMERAS}
+        diffs: dict[str, list[np.ndarray]] = {c: [] for c in CAMERAS}
+        fast.reset(init, seed=0, render=False)
+        for i in range(states + 1):
+            if i:
+                fast.advance(PUSH)
+            fast.set_state(fast.get_state())  # images of the state itself, as datasets render
+            for c in CAMERAS:
+                reference = fast.render_full(c)
+                full_frames[c].append(reference)
+                diffs[c].append(np.abs(fast.render(c).astype(np.int16) - reference))
+        for c in CAMERAS:
+            d = np.stack(diffs[c])
+            out[f"{c}_mean"] = float(d.mean() / 255)
+            out[f"{c}_max"] = float(d.max() / 255)
+            out[f"{c}_over_8"] = float((d.max(axis=-1) > 8).mean())  # share of pixels off by > 8/255
+            out[f"{c}_encoding"] = encoding_error(full_frames[c])
+        # Speed, taking turns with LIBERO's own environment.
+        libero = OffScreenRenderEnv(
+            bddl_file_name=str(task.bddl_path),
+            camera_heights=size,
+            camera_widths=size,
+            camera_names=["agentview", "robot0_eye_in_hand"],
+        )
+        try:
+            libero.seed(0)
+            libero.reset()
+            libero.set_init_state(init)
+            fast.reset(init, seed=0, render=False)
+            gl = libero.env.sim._render_context_offscreen.gl_ctx
+            out.update(
+                _median_seconds(
+                    {
+                        "libero_step": lambda: libero.step(NOOP),
+                        "fast_step": lambda: fast.step(NOOP),
+                        "physics_step": lambda: physics.step(NOOP, render=False),
+                        "fast_two_cameras": lambda: (fast.render("agentview"), fast.render("eye_in_hand")),
+                    },
+                    {"libero_step": gl.make_current},
+                    frames,
+                    reps,
+                )
+            )
+        finally:
+            libero.close()
+    return out
+
+
+def generation_rates(task: str, episodes: int, size: int, repeats: int) -> dict[str, list[float]]:
+    """Seconds of ``libero-data generate`` (one worker, a fresh folder and process each run) at
+    full and fast render quality, taking turns; the same episodes either way."""
+    import subprocess
+    import sys
+
+    suite, index = task.split("/")
+    cli = str(Path(sys.executable).with_name("libero-data"))
+    seconds: dict[str, list[float]] = {"full": [], "fast": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(repeats):
+            for quality in seconds:
+                out = Path(tmp) / f"{quality}-{r}"
+                command = [cli, "generate", "--suite", suite, "--tasks", index, "--episodes-per-task"]
+                command += [str(episodes), "--image-size", str(size), "--render-quality", quality]
+                command += ["--out", str(out)]
+                start = time.perf_counter()
+                subprocess.run(command, check=True, capture_output=True)
+                seconds[quality].append(time.perf_counter() - start)
+    return seconds
+
+
+def tables(
+    rows: list[dict[str, Any]],
+    args: argparse.Namespace,
+    cache_s: float,
+    cache_line: str,
+    generation: dict[str, list[float]] | None,
+) -> str:
+    lines = [
+        f"Two cameras (agentview, eye-in-hand) per step; medians of {args.reps} rounds × {args.frames} steps "
+        "taking turns in one process; llvmpipe threads: "
+        f"{os.environ.get('LP_NUM_THREADS', 'default (one per core)')}. Run: `python -m benchmarks.bench_render_fast "
+        f"--sizes {','.join(map(str, args.sizes))} --frames {args.frames} --reps {args.reps} "
+        f"--generate-episodes {args.generate_episodes}`.",
+        "",
+        "| scene | size | triangles drawn, full → fast | LIBERO step ms | fast step ms | **fast / LIBERO steps/s** | "
+        "physics ms | fast render ms (2 cameras) |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| `{r['task']}` | {r['size']} | {r['faces_before'] / 1000:.0f} k → {r['faces_after'] / 1000:.0f} k | "
+            f"{r['libero_step'] * 1e3:.1f} | {r['fast_step'] * 1e3:.1f} | **{r['libero_step'] / r['fast_step']:.2f}×** | "
+            f"{r['physics_step'] * 1e3:.1f} | {r['fast_two_cameras'] * 1e3:.1f} |"
+        )
+    for size in args.sizes:
+        mine = [r for r in rows if r["size"] == size]
+        total = sum(r["libero_step"] for r in mine) / sum(r["fast_step"] for r in mine)
+        lines.append(f"| **all scenes** | {size} | | | | **{total:.2f}×** (total time) | | |")
+    lines += [
+        "",
+        f"Image difference, `fast` against `full` on the same {args.states + 1} states per scene (stored init "
+        "state, then a scripted push), and the error the datasets' AV1 encoding adds to the `full` frames "
+        "themselves; |d| on a 0-1 scale, per camera:",
+        "",
+        "| scene | size | agentview mean | max | > 8/255 | encoding mean | eye-in-hand mean | max | > 8/255 | encoding mean |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        cells = []
+        for c in CAMERAS:
+            cells += [
+                f"{r[f'{c}_mean']:.4f}",
+                f"{r[f'{c}_max']:.3f}",
+                f"{r[f'{c}_over_8']:.1%}",
+                f"{r[f'{c}_encoding']:.4f}",
+            ]
+        lines.append(f"| `{r['task']}` | {r['size']} | " + " | ".join(cells) + " |")
+    worst = max(r[f"{c}_mean"] for r in rows for c in CAMERAS)
+    best_enc = min(r[f"{c}_encoding"] for r in rows for c in CAMERAS)
+    lines += [
+        "",
+        f"Largest mean difference: **{worst:.4f}**; smallest encoding error: **{best_enc:.4f}**.",
+        "",
+        f"Building the cache for these scenes from empty: {cache_s:.1f} s ({cache_line}).",
+    ]
+    if generation:
+        full, fast = (statistics.median(generation[q]) for q in ("full", "fast"))
+        n = args.generate_episodes
+        lines += [
+            "",
+            f"Generation (`libero-data generate --suite {args.generate_task.split('/')[0]} --tasks "
+            f"{args.generate_task.split('/')[1]} --episodes-per-task {n} --image-size {args.sizes[0]}`, one worker, "
+            f"a fresh folder and process each run, medians of {len(generation['full'])} runs taking turns; the "
+            "same episodes at either quality, the mesh cache already built): "
+            f"full {full:.0f} s = **{60 * n / full:.2f} episodes/min**, fast {fast:.0f} s = "
+            f"**{60 * n / fast:.2f} episodes/min** ({full / fast:.2f}×). Wall time includes start-up "
+            "(imports, environment construction) and the search, which rendering does not change.",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tasks", default=TASKS)
+    parser.add_argument("--sizes", type=lambda s: [int(x) for x in s.split(",")], default=[128, 256])
+    parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--reps", type=int, default=3)
+    parser.add_argument("--states", type=int, default=30)
+    parser.add_argument("--generate-task", default="libero_goal/0")
+    parser.add_argument("--generate-episodes", type=int, default=0, help="0: skip the generation runs")
+    parser.add_argument("--generate-repeats", type=int, default=1)
+    parser.add_argument("--results", type=Path, help="RESULTS.md to update")
+    args = parser.parse_args()
+    from libero_data.pipeline.mesh_cache import build_mesh_cache
+    from libero_data.tasks import get_task
+
+    refs = args.tasks.split(",")
+    with tempfile.TemporaryDirectory() as cache:
+        build = build_mesh_cache([get_task(r) for r in refs], cache)
+        line = f"{build.meshes_built} meshes simplified, {build.meshes_found} shared with an earlier scene"
+        rows = [measure(r, s, args.frames, args.reps, args.states, cache) for s in args.sizes for r in refs]
+        generation = None
+        if args.generate_episodes:
+            os.environ["LIBERO_DATA_CACHE"] = cache  # the generate processes read the same cache
+            generation = generation_rates(
+                args.generate_task, args.generate_episodes, args.sizes[0], args.generate_repeats
+            )
+    text = tables(rows, args, build.seconds, line, generation)
+    print(text)
+    if args.results:
+        from benchmarks.results import replace_section
+
+        replace_section(args.results, "Fast rendering", text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,309 @@
+"""``render_quality="fast"``: the scene drawn from simplified visual meshes, in our own GL context.
+
+:class:`OffscreenRenderer` is MuJoCo's renderer set up the way robosuite sets up its offscreen
+renderer (the same visualisation options, collision geometry hidden, a 1000-geom scene, the
+model's multisampling): given the model robosuite draws, it gives robosuite's pixels exactly
+(tested). Its GL context owns the meshes it was built from, while the scene is updated from
+the live model and data; so a context built from a copy whose meshes were simplified draws
+the simulated scene with fewer triangles and nothing else changed (cameras, lights, colours
+and poses all come from the simulator as it is at that moment).
+
+:func:`fast_renderer` builds that copy: the meshes that cameras see are simplified
+(:mod:`libero_data.sim.meshes`, cached), except those on a camera's own body and below it
+(the gripper under the wrist camera fills a large part of its image at a few centimetres).
+"""
+
+from __future__ import annotations
+
+import atexit
+import copy
+import weakref
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from libero_data.sim.meshes import ALGORITHM, CacheReport, MeshCache, MeshData, MeshSettings
+
+#: The largest mean |fast - full| per camera image (0-1 scale) that ``fast`` is held to: the
+#: error the datasets' video encoding itself adds to a frame (~0.007, benchmarks/RESULTS.md).
+FAST_MEAN_BOUND = 0.007
+#: Geom groups robosuite draws (``render_collision_mesh=False``, ``render_visual_mesh=True``):
+#: group 0 holds collision geometry, group 1 visual meshes, group 2 what MuJoCo shows by default.
+DRAWN_GROUPS = (1, 2)
+
+
+class OffscreenRenderer:
+    """Square images of a model's fixed cameras, in a GL context of its own."""
+
+    def __init__(self, model: Any, size: int, backend: str | None = None, *, cull: bool = False) -> None:
+        import mujoco
+
+        self.size = size
+        # Geoms wholly outside a camera's view cost vertex work and no pixels; unless a light
+        # casts shadows (which an unseen geom may throw into view), they are left out.
+        self.cull = cull and not bool(np.any(model.light_castshadow))
+        self._ctx = _gl_context(backend, size)
+        self._ctx.make_current()
+        # The offscreen buffer takes the model's offwidth/offheight; an image-sized buffer
+        # is cleared and resolved faster and gives the same pixels in the viewport.
+        vis = model.vis.global_
+        saved = (vis.offwidth, vis.offheight)
+        vis.offwidth, vis.offheight = size, size
+        try:
+            self._con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
+        finally:
+            vis.offwidth, vis.offheight = saved
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._con)
+        _LIVE.add(self)
+        if not _EXIT_HOOK:
+            # Registered after the first context (and so after EGL's own exit hook, which
+            # terminates the display): at exit, live renderers are freed while EGL still works,
+            # instead of by the garbage collector afterwards (which prints an EGL traceback).
+            atexit.register(_close_all)
+            _EXIT_HOOK.append(True)
+        self._scene = mujoco.MjvScene(model, maxgeom=1000)
+        self._option = mujoco.MjvOption()
+        for group in range(len(self._option.geomgroup)):
+            self._option.geomgroup[group] = int(group in DRAWN_GROUPS)
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self._perturb = mujoco.MjvPerturb()
+        self._viewport = mujoco.MjrRect(0, 0, size, size)
+        self._pixels = np.empty((size, size, 3), dtype=np.uint8)
+
+    def render(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
+        """The upright image of camera ``camera_id`` for the scene in ``data``."""
+        import mujoco
+
+        self._ctx.make_current()
+        self._camera.fixedcamid = camera_id
+        mujoco.mjv_updateScene(
+            model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
+        )
+        if self.cull:
+            _cull(self._scene, model, data, camera_id)
+        mujoco.mjr_render(self._viewport, self._scene, self._con)
+        mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
+        # Read bottom-up, from cameras mounted rolled by 180 degrees (see LiberoEnv.render).
+        return np.ascontiguousarray(self._pixels[::-1, ::-1])
+
+    def gl_info(self, backend: str | None) -> dict[str, str]:
+        self._ctx.make_current()
+        return gl_strings(backend)
+
+    def close(self) -> None:
+        con, ctx = self.__dict__.pop("_con", None), self.__dict__.pop("_ctx", None)
+        _LIVE.discard(self)
+        if ctx is not None:
+            ctx.make_current()
+            if con is not None:
+                con.free()
+            ctx.free()
+
+
+_LIVE: weakref.WeakSet[OffscreenRenderer] = weakref.WeakSet()
+_EXIT_HOOK: list[bool] = []
+
+
+def _close_all() -> None:
+    for renderer in list(_LIVE):
+        renderer.close()
+
+
+def _cull(scene: Any, model: Any, data: Any, camera_id: int) -> int:
+    """Mark the scene's model geoms whose bounding sphere lies outside the camera's view as not drawn.
+
+    The test is conservative (a sphere against each of the four side planes and the plane
+    behind the camera), so a geom that could touch a pixel is always kept: the image is the
+    same (tested). Returns how many geoms were left out.
+    """
+    import mujoco
+
+    position = data.cam_xpos[camera_id]
+    rotation = data.cam_xmat[camera_id].reshape(3, 3)
+    half = np.deg2rad(model.cam_fovy[camera_id] / 2)  # square images: the same angle both ways
+    sin, cos = np.sin(half), np.cos(half)
+    geoms = [scene.geoms[k] for k in range(scene.ngeom)]
+    rows = [k for k, g in enumerate(geoms) if g.objtype == mujoco.mjtObj.mjOBJ_GEOM]
+    if not rows:
+        return 0
+    radius = model.geom_rbound[[geoms[k].objid for k in rows]]
+    local = (np.array([geoms[k].pos for k in rows], dtype=np.float64) - position) @ rotation
+    depth = -local[:, 2]  # cameras look along their -z axis
+    outside = (depth + radius < 0) | (
+        np.abs(local[:, :2]) * cos - depth[:, None] * sin > radius[:, None]
+    ).any(axis=1)
+    outside &= radius > 0  # planes and the like have no bounding sphere
+    none = int(mujoco.mjtGeom.mjGEOM_NONE)
+    for k in np.flatnonzero(outside):
+        geoms[rows[k]].type = none
+    return int(outside.sum())
+
+
+def _gl_context(backend: str | None, size: int) -> Any:
+    """A headless GL context of ``backend`` (``mujoco.GLContext`` is whatever MUJOCO_GL said at import)."""
+    import mujoco
+
+    if backend == "egl":
+        from mujoco.egl import GLContext as EGLContext
+
+        return EGLContext(size, size)
+    if backend == "osmesa":
+        from mujoco.osmesa import GLContext as OSMesaContext
+
+        return OSMesaContext(size, size)
+    return mujoco.GLContext(size, size)
+
+
+def gl_strings(backend: str | None) -> dict[str, str]:
+    """The current OpenGL context's vendor, renderer and version (and the backend named)."""
+    from OpenGL import GL
+
+    return {
+        "backend": str(backend),
+        "vendor": GL.glGetString(GL.GL_VENDOR).decode(errors="replace"),
+        "renderer": GL.glGetString(GL.GL_RENDERER).decode(errors="replace"),
+        "version": GL.glGetString(GL.GL_VERSION).decode(errors="replace"),
+    }
+
+
+@dataclass(frozen=True)
+class FastScene:
+    """What :func:`fast_renderer` draws: triangles per frame of all drawn geoms (a camera draws
+    those in its view) at full and at fast quality, and the cache's work."""
+
+    faces_drawn_before: int
+    faces_drawn_after: int
+    meshes_simplified: int
+    meshes_kept_whole: int
+    cache: CacheReport
+
+
+def fast_renderer(
+    model: Any,
+    size: int,
+    camera_ids: list[int],
+    settings: MeshSettings | None = None,
+    cache_dir: str | Path | None = None,
+    *,
+    backend: str | None = None,
+    progress: bool | None = None,
+) -> tuple[OffscreenRenderer, FastScene]:
+    """A renderer whose context holds simplified copies of ``model``'s drawn meshes."""
+    faces, scene = simplified_meshes(model, camera_ids, settings, cache_dir, progress=progress)
+    render_model = copy.deepcopy(model)
+    for i, tri in faces.items():
+        apply_faces(render_model, i, tri)
+    return OffscreenRenderer(render_model, size, backend, cull=True), scene
+
+
+def simplified_meshes(
+    model: Any,
+    camera_ids: list[int],
+    settings: MeshSettings | None = None,
+    cache_dir: str | Path | None = None,
+    *,
+    progress: bool | None = None,
+) -> tuple[dict[int, np.ndarray], FastScene]:
+    """The simplified triangles of the meshes ``model``'s cameras draw (from the cache, or built
+    and cached), leaving whole those on the cameras' own bodies."""
+    settings = settings or MeshSettings()
+    uses = drawn_meshes(model)
+    near = camera_meshes(model, camera_ids)
+    meshes = {i: MeshData.from_model(model, i) for i in sorted(set(uses) - near)}
+    faces, report = MeshCache(cache_dir).simplified(meshes, settings, progress=progress)
+    before = sum(n * int(model.mesh_facenum[i]) for i, n in uses.items())
+    after = sum(n * (len(faces[i]) if i in faces else int(model.mesh_facenum[i])) for i, n in uses.items())
+    scene = FastScene(
+        faces_drawn_before=before,
+        faces_drawn_after=after,
+        meshes_simplified=len(meshes) - report.whole,
+        meshes_kept_whole=len(set(uses) & near) + report.whole,
+        cache=report,
+    )
+    return faces, scene
+
+
+class FastImages:
+    """One environment's ``fast`` images, and full-quality references to measure them by.
+
+    The simplified renderer is built on the first image (meshes from the cache, or simplified
+    and cached), the reference renderer on the first reference image.
+    """
+
+    def __init__(self, size: int, camera_ids: list[int], backend: str | None, cache_dir: str | None) -> None:
+        self.size, self.camera_ids, self.backend, self.cache_dir = size, camera_ids, backend, cache_dir
+        self._fast: tuple[OffscreenRenderer, FastScene] | None = None
+        self._reference: OffscreenRenderer | None = None
+
+    def _built(self, model: Any) -> tuple[OffscreenRenderer, FastScene]:
+        if self._fast is None:
+            self._fast = fast_renderer(
+                model, self.size, self.camera_ids, cache_dir=self.cache_dir, backend=self.backend
+            )
+        return self._fast
+
+    def render(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
+        return self._built(model)[0].render(model, data, camera_id)
+
+    def render_full(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
+        if self._reference is None:
+            self._reference = OffscreenRenderer(model, self.size, self.backend)
+        return self._reference.render(model, data, camera_id)
+
+    def info(self) -> dict[str, Any]:
+        scene = self._fast[1] if self._fast is not None else None
+        out: dict[str, Any] = {
+            "quality": "fast",
+            "settings": {**MeshSettings().to_dict(), "algorithm": ALGORITHM},
+        }
+        if scene is not None:
+            out.update(faces_before=scene.faces_drawn_before, faces_after=scene.faces_drawn_after)
+        return out
+
+    def gl_info(self, model: Any) -> dict[str, str]:
+        return self._built(model)[0].gl_info(self.backend)
+
+    def close(self) -> None:
+        for renderer in (self._fast[0] if self._fast else None, self._reference):
+            if renderer is not None:
+                renderer.close()
+        self._fast = self._reference = None
+
+
+def apply_faces(model: Any, i: int, faces: np.ndarray) -> None:
+    """Replace mesh ``i``'s triangles in ``model`` (a render copy) by ``faces`` (k, 3, 3)."""
+    adr, num = int(model.mesh_faceadr[i]), int(model.mesh_facenum[i])
+    k = len(faces)
+    if k > num:
+        raise ValueError(f"mesh {i} has {num} triangles; a simplified copy cannot have {k}")
+    model.mesh_face[adr : adr + k] = faces[:, :, 0]
+    model.mesh_facenormal[adr : adr + k] = faces[:, :, 1]
+    model.mesh_facetexcoord[adr : adr + k] = faces[:, :, 2]
+    model.mesh_facenum[i] = k
+
+
+def drawn_meshes(model: Any) -> dict[int, int]:
+    """Mesh -> how many of the geoms a camera draws use it (visible groups, not fully transparent)."""
+    import mujoco
+
+    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    shown = np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
+    ids, counts = np.unique(model.geom_dataid[is_mesh & shown], return_counts=True)
+    return {int(i): int(n) for i, n in zip(ids, counts, strict=True)}
+
+
+def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:
+    """Meshes on the bodies of cameras mounted on a body (not the world), and on their descendants."""
+    import mujoco
+
+    roots = {int(model.cam_bodyid[c]) for c in camera_ids} - {0}
+    if not roots:
+        return set()
+    inside = np.zeros(model.nbody, dtype=bool)
+    for body in range(1, model.nbody):  # parents come before children in MuJoCo's body order
+        inside[body] = body in roots or bool(inside[model.body_parentid[body]])
+    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    return {int(i) for i in model.geom_dataid[is_mesh & inside[model.geom_bodyid]]}

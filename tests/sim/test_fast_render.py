@@ -1,0 +1,64 @@
+"""``render_quality="fast"``: images close to full quality within the stated bound, physics
+untouched, culling that changes no pixel, and a full-quality reference equal to LIBERO's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from libero_data.sim import EnvConfig, LiberoEnv
+from libero_data.sim.render import FAST_MEAN_BOUND
+from libero_data.tasks import get_task
+
+pytestmark = pytest.mark.sim
+
+CAMERAS = ("agentview", "eye_in_hand")
+PUSH = np.array([0.4, -0.3, -0.2, 0.0, 0.0, 0.1, -1.0])
+
+
+def _difference(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a.astype(np.int16) - b.astype(np.int16)).mean() / 255.0)
+
+
+@pytest.mark.parametrize("ref", ["libero_goal/0", "libero_10/3"])
+def test_fast_images_are_close_to_full_and_physics_is_untouched(ref: str) -> None:
+    task = get_task(ref)
+    init = task.init_states()[0]
+    with (
+        LiberoEnv(task, EnvConfig(image_size=128)) as full,
+        LiberoEnv(task, EnvConfig(image_size=128, render_quality="fast")) as fast,
+    ):
+        a = full.reset(init, seed=0, render=True)
+        b = fast.reset(init, seed=0, render=True)
+        for _ in range(6):  # the arm moves: images of another state
+            a, _ = full.step(PUSH)
+            b, _ = fast.step(PUSH)
+        assert np.array_equal(a["sim_state"], b["sim_state"])  # what is drawn never touches physics
+        for camera in CAMERAS:
+            difference = _difference(a[camera], b[camera])
+            assert 0.0 < difference <= FAST_MEAN_BOUND, (camera, difference)
+            # The reference renderer of a fast environment draws LIBERO's pixels exactly.
+            assert np.array_equal(fast.render_full(camera), full.render(camera)), camera
+        scene = fast.render_scene()
+        assert scene["quality"] == "fast" and scene["faces_after"] < scene["faces_before"] / 2
+        assert full.render_scene() == {"quality": "full"}
+
+
+def test_leaving_out_geoms_outside_the_view_changes_no_pixel() -> None:
+    task = get_task("libero_goal/0")
+    with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        env.render("agentview")
+        renderer = env._fast._fast[0]
+        assert renderer.cull
+        culled = {c: env.render(c) for c in CAMERAS}
+        renderer.cull = False
+        for camera in CAMERAS:
+            assert np.array_equal(env.render(camera), culled[camera]), camera
+
+
+def test_a_bad_render_quality_is_named() -> None:
+    from libero_data.errors import InputError
+
+    with pytest.raises(InputError, match="render quality must be full or fast"):
+        EnvConfig(render_quality="medium")
