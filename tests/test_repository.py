@@ -23,6 +23,7 @@ def test_the_test_command_checks_lint_format_and_types_then_runs_pytest() -> Non
     text = "\n".join(_commands("scripts/test"))
     for check in (r"ruff check\b", r"ruff format --check\b", r"\bmypy\b", r"-m pytest \"\$@\""):
         assert re.search(check, text), check
-    # mypy's own configuration names what it checks: the packages, the tests and the benchmarks.
+    # mypy's own configuration names what it checks: the packages, the tests, the benchmarks and
+    # the LeRobot plugin package.
     pyproject = (ROOT / "pyproject.toml").read_text()
-    assert 'files = ["libero_data", "libero_bench", "tests", "benchmarks"]' in pyproject
+    assert 'files = ["libero_data", "libero_bench", "tests", "benchmarks", "plugins"]' in pyproject

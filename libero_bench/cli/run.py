@@ -17,6 +17,16 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 
+EvalRenderQuality = Annotated[
+    str | None,
+    typer.Option(
+        "--render-quality",
+        help="Images of the evaluation rollouts: 'full' (LIBERO's renderer) or 'fast' (simplified meshes); "
+        "default: the preset's (full). Same as --set eval_render_quality=...",
+    ),
+]
+
+
 @user_errors
 def run_cmd(
     data: Annotated[Path, typer.Option("--data", help="A dataset made by `libero-data generate`.")],
@@ -65,19 +75,10 @@ def run_cmd(
         list[str] | None,
         typer.Option("--set", help="Override a preset field, e.g. --set eval_rollouts=5 (repeatable)."),
     ] = None,
-    render_quality: Annotated[
-        str | None,
-        typer.Option(
-            "--render-quality",
-            help="Images of the evaluation rollouts: 'full' (LIBERO's renderer) or 'fast' (simplified meshes); "
-            "default: the preset's (full). Same as --set eval_render_quality=...",
-        ),
-    ] = None,
+    render_quality: EvalRenderQuality = None,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
-    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
-    os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per rollout video
-    os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")  # the sentence encoder's loading bar
+    _quiet_environment(threads)
     import torch
 
     from libero_bench.plan import RunOptions, RunRequest, check_device, check_out_folder, plan_run
@@ -126,6 +127,12 @@ def run_cmd(
 
     print_table(table_rows(summarize([load_run(out)])))
     say(f"report with plots: libero-bench report {out}")
+
+
+def _quiet_environment(threads: int) -> None:
+    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
+    os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per rollout video
+    os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")  # the sentence encoder's loading bar
 
 
 class _RunLogging:
