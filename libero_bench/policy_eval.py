@@ -11,9 +11,10 @@ task's success with n and a 95% Wilson interval. The folder resumes after an int
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -149,8 +150,12 @@ def evaluate_policy(
     workers: int = 1,
     on_result: Callable[[RolloutResult], None] | None = None,
     on_total: Callable[[int], None] | None = None,
+    heldout_seeds: Mapping[str, Sequence[int]] | None = None,
 ) -> dict[str, Any]:
-    """Evaluate (or go on evaluating) the policy into ``out``; returns the summary."""
+    """Evaluate (or go on evaluating) the policy into ``out``; returns the summary.
+
+    ``heldout_seeds`` (task name -> seeds) replaces a task's own held-out placements, so that
+    variants of one task are rolled out from the same placements (libero_bench.robustness)."""
     from libero_bench.lerobot_policy import policy_config, run_lerobot_rollout, serve
     from libero_data.runtime.versions import versions
 
@@ -162,6 +167,11 @@ def evaluate_policy(
     eval_tasks = [
         _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1]) for i, t in enumerate(tasks)
     ]
+    if heldout_seeds:
+        eval_tasks = [
+            dataclasses.replace(e, heldout=tuple(heldout_seeds[e.name])) if e.name in heldout_seeds else e
+            for e in eval_tasks
+        ]
     width = max(
         len(e.init_states[0]) if e.init_states is not None else _width(t)
         for e, t in zip(eval_tasks, tasks, strict=True)

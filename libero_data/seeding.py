@@ -73,6 +73,14 @@ def variant_rng(seed: int, task_index: int, kind_position: int) -> np.random.Gen
     return np.random.default_rng(np.random.SeedSequence([seed, task_index, kind_position, 0x7A51]))
 
 
+def variant_level_rng(seed: int, task_index: int, kind_position: int, level: int) -> np.random.Generator:
+    """The stream of a robustness variant at a severity level (level 1 is :func:`variant_rng`'s
+    stream, so variants made before levels existed are made again the same)."""
+    if level == 1:
+        return variant_rng(seed, task_index, kind_position)
+    return np.random.default_rng(np.random.SeedSequence([seed, task_index, kind_position, 0x7A51, level]))
+
+
 def run_seed(seed: int, task: int, stream: int) -> int:
     """A 63-bit seed of a benchmark run for ``task`` (its position in the run) and ``stream``
     (:data:`WEIGHTS`, :data:`TASK_START`, :data:`LOADER`, :data:`END_TASK_LOADER`)."""

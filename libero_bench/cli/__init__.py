@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from libero_bench.cli import policy, results, run, saliency
+from libero_bench.cli import policy, results, robustness, run, saliency
 from libero_data.cli.common import user_errors
 
 app = typer.Typer(
@@ -51,6 +51,7 @@ app.command("compare")(results.compare_cmd)
 app.command("eval")(policy.eval_cmd)
 app.command("replay")(results.replay_cmd)
 app.command("saliency")(saliency.saliency_cmd)
+app.command("robustness")(robustness.robustness_cmd)
 
 
 def main() -> None:

@@ -109,6 +109,10 @@ class Problem:
     init: tuple[Atom, ...]
     goal: Formula
     domain: str = "robosuite"
+    #: A robustness perturbation of the scene (camera, lighting, ...), as canonical JSON;
+    #: written as a ``; libero-data perturbation: {...}`` comment line, which LIBERO's own
+    #: parser skips (libero_data.perturb).
+    perturbation: str = ""
 
     @property
     def scene(self) -> str:

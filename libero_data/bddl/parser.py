@@ -302,6 +302,7 @@ def parse(text: str, source: str = "<string>") -> Problem:
 
     return Problem(
         problem=problem_name,
+        perturbation=_perturbation(reader),
         domain=domain,
         language=language,
         regions=tuple(regions),
@@ -311,6 +312,31 @@ def parse(text: str, source: str = "<string>") -> Problem:
         init=tuple(init),
         goal=goal,
     )
+
+
+#: The comment line that carries a problem's perturbation (see Problem.perturbation).
+PERTURBATION_MARK = "; libero-data perturbation:"
+
+
+def _perturbation(reader: _Reader) -> str:
+    """The perturbation comment's JSON, canonical (sorted keys); "" without one."""
+    import json
+
+    found = ""
+    for lineno, raw in enumerate(reader.text.splitlines(), start=1):
+        line = raw.strip()
+        if not line.startswith(PERTURBATION_MARK):
+            continue
+        if found:
+            raise reader.error("the perturbation comment appears twice", lineno)
+        try:
+            value = json.loads(line[len(PERTURBATION_MARK) :])
+        except json.JSONDecodeError as exc:
+            raise reader.error(f"the perturbation comment is not valid JSON ({exc.msg})", lineno) from None
+        if not isinstance(value, dict) or not isinstance(value.get("kind"), str):
+            raise reader.error("the perturbation comment must be a JSON object with a 'kind'", lineno)
+        found = json.dumps(value, sort_keys=True, separators=(",", ":"))
+    return found
 
 
 def _atom_or_error(reader: _Reader, node: _Node, names: set[str], where: str) -> Atom:

@@ -6,6 +6,7 @@ The output loads in LIBERO's own parser unchanged, and ``parse(write(p)) == p``.
 from __future__ import annotations
 
 from libero_data.bddl.model import And, Atom, Entity, Formula, Not, Or, Problem, Region
+from libero_data.bddl.parser import PERTURBATION_MARK
 from libero_data.errors import BDDLError
 
 
@@ -50,7 +51,8 @@ def write(problem: Problem) -> str:
     """Serialise a problem as BDDL text."""
     if "(" in problem.language or ")" in problem.language:
         raise BDDLError("the language sentence must not contain parentheses", source=problem.problem)
-    lines = [
+    lines = [f"{PERTURBATION_MARK} {problem.perturbation}"] if problem.perturbation else []
+    lines += [
         f"(define (problem {problem.problem})",
         f"  (:domain {problem.domain})",
         f"  (:language {problem.language})",

@@ -72,7 +72,19 @@ VariantsOf = Annotated[
 ]
 Kinds = Annotated[
     list[str] | None,
-    typer.Option("--kinds", help="With --variants-of: layout, distractors, swap, language (default: all)."),
+    typer.Option(
+        "--kinds",
+        help="With --variants-of: layout, distractors, swap, language, camera, robot_init, lighting, texture, "
+        "noise (default: the first four).",
+    ),
+]
+Levels = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--level",
+        help="With --variants-of: severity levels 1-5 (repeat or comma-separate; default 1). Magnitudes per level: "
+        "README, Robustness.",
+    ),
 ]
 EpisodesPerTask = Annotated[
     int,
@@ -155,6 +167,7 @@ def generate_cmd(
     tasks_only: TasksOnly = False,
     variants_of: VariantsOf = None,
     kinds: Kinds = None,
+    level: Levels = None,
     episodes_per_task: EpisodesPerTask = 50,
     image_size: GenImageSize = None,
     features: Features = "libero-data",
@@ -182,10 +195,12 @@ def generate_cmd(
     limit_malloc_arenas()  # with --workers 1 this process renders and writes every episode
     runner = Executor.processes(workers, executor, ray_address)  # checked before any work
     task_refs = split_list(tasks)
-    _check_combination(suite, task_refs, procedural, variants_of, scene, template, kinds, tasks_only)
+    _check_combination(suite, task_refs, procedural, variants_of, scene, template, kinds or level, tasks_only)
     if procedural is not None or variants_of is not None:
         suite = str(
-            _procedural_suite(out, procedural, variants_of, seed, scene, template, kinds, task_refs, runner)
+            _procedural_suite(
+                out, procedural, variants_of, seed, scene, template, kinds, task_refs, runner, _levels(level)
+            )
         )
         task_refs = []
         if tasks_only:
@@ -229,7 +244,7 @@ def _check_combination(
         raise typer.BadParameter("--variants-of makes its own suite; leave out --suite")
     if procedural is None and variants_of is None and (scene or template or kinds or tasks_only):
         raise typer.BadParameter(
-            "--scene/--template need --procedural, --kinds needs --variants-of, --tasks-only needs either"
+            "--scene/--template need --procedural, --kinds and --level need --variants-of, --tasks-only needs either"
         )
 
 
@@ -296,6 +311,17 @@ def episodes_with_progress(work: Callable[[Callable[[Any], None]], Any], request
     return result
 
 
+def _levels(values: list[str] | None) -> tuple[int, ...]:
+    from libero_data.errors import InputError
+
+    levels = []
+    for value in split_list(values) or ["1"]:
+        if not value.isdigit() or not 1 <= int(value) <= 5:
+            raise InputError(f"a level must be 1..5, got {value!r}", field="level")
+        levels.append(int(value))
+    return tuple(sorted(set(levels)))
+
+
 def _procedural_suite(
     out: Path,
     n: int | None,
@@ -306,24 +332,25 @@ def _procedural_suite(
     kinds: list[str] | None,
     tasks: list[str],
     executor: Any,
+    levels: tuple[int, ...] = (1,),
 ) -> Path:
     """Sample new tasks (or derive variants), check them with the expert, write them into ``out``."""
     from libero_data.errors import InputError
+    from libero_data.perturb.levels import KINDS, SCENE_KINDS
     from libero_data.procedural.suite import ProceduralSettings, make_suite
-    from libero_data.procedural.variants import KINDS
 
     if variants_of is not None:
         from libero_data.tasks import get_suite
 
         source = get_suite(variants_of)
-        chosen_kinds = split_list(kinds) or list(KINDS)
+        chosen_kinds = split_list(kinds) or list(SCENE_KINDS)
         bad = [k for k in chosen_kinds if k not in KINDS]
         if bad:
             raise InputError(f"unknown variant kind {bad[0]!r}; known: {', '.join(KINDS)}", field="kinds")
         chosen = tuple(str(source.task(t).index) for t in tasks)
-        n = (len(chosen) or len(source.tasks)) * len(chosen_kinds)
+        n = (len(chosen) or len(source.tasks)) * len(chosen_kinds) * len(levels)
         settings = ProceduralSettings(
-            n=n, seed=seed, variants_of=variants_of, kinds=tuple(chosen_kinds), tasks=chosen
+            n=n, seed=seed, variants_of=variants_of, kinds=tuple(chosen_kinds), tasks=chosen, levels=levels
         )
     else:
         assert n is not None

@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import console, say, user_errors
+from libero_data.cli.common import console, say, split_list, user_errors
 
 
 def scenes_cmd() -> None:
@@ -36,13 +36,55 @@ def contact_sheet_cmd(
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG file to write.")] = Path("contact_sheet.png"),
     count: Annotated[int, typer.Option("--count", "-n", help="How many tasks (the first N).", min=1)] = 12,
     size: Annotated[int, typer.Option("--size", help="Frame size in pixels.", min=32, max=512)] = 160,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the expert episodes.")] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of the expert episodes (or of the variants).")
+    ] = 0,
+    kind: Annotated[
+        str | None,
+        typer.Option(
+            "--kind",
+            help="Instead: what each severity level of a variant kind looks like (levels 0-5 of one task), "
+            "e.g. camera; comma-separated or 'all' writes one PNG per kind into the folder --out.",
+        ),
+    ] = None,
+    task: Annotated[
+        int, typer.Option("--task", help="With --kind: the task's index in the suite.", min=0)
+    ] = 0,
 ) -> None:
-    """A PNG grid: first and last agentview frame of one expert episode per task, with its instruction."""
+    """A PNG grid: first and last agentview frame of one expert episode per task, with its instruction.
+
+    With --kind: the source task and each level 1-5 of a variant kind side by side, agentview over
+    eye-in-hand, with what was drawn for each level.
+    """
     from libero_data.procedural.contact_sheet import contact_sheet
     from libero_data.tasks import get_suite
 
+    if kind is not None:
+        _kind_sheets(suite, kind, task, out, size, seed)
+        return
     tasks = list(get_suite(suite).tasks[:count])
     with console().status(f"running the expert on {len(tasks)} task(s)"):
         path = contact_sheet(tasks, out, size=size, seed=seed)
     say(f"wrote {path}")
+
+
+def _kind_sheets(suite: str, kinds: str, index: int, out: Path, size: int, seed: int) -> None:
+    from libero_data.errors import InputError
+    from libero_data.perturb.levels import KINDS
+    from libero_data.perturb.sheet import kind_sheet
+    from libero_data.tasks import get_suite
+
+    chosen = list(KINDS) if kinds == "all" else split_list(kinds)
+    unknown = [k for k in chosen if k not in KINDS]
+    if unknown:
+        raise InputError(
+            f"--kind: unknown kind(s) {', '.join(unknown)}; choose among {', '.join(KINDS)} or all"
+        )
+    tasks = get_suite(suite).tasks
+    if index >= len(tasks):
+        raise InputError(f"--task {index}: suite {suite} has {len(tasks)} tasks")
+    for i, k in enumerate(chosen, 1):
+        with console().status(f"{k} ({i}/{len(chosen)}): rendering levels 0-5"):
+            target = out / f"{k}.png" if len(chosen) > 1 else out
+            path = kind_sheet(tasks[index], k, target, size=size, seed=seed)
+        say(f"wrote {path}")

@@ -66,6 +66,7 @@ def describe_dataset(
         **{f"version: {k}": v for k, v in vers.items()},
         **provenance.card_settings(machines, renderers),
         **_generator_settings(suite.manifest(), len(suite.tasks)),
+        **_perturbation_rows([suite.task(i) for i in request.tasks]),
     }
     card = render_card(
         title=f"libero-data · {suite.name}",
@@ -150,6 +151,19 @@ def _card_task(task: Any, episodes: int, attempts: int, successes: int) -> Any:
     return CardTask(
         task.index, task.name, task.language, formula_text(task.problem.goal), episodes, attempts, successes
     )
+
+
+def _perturbation_rows(tasks: list[Any]) -> dict[str, str]:
+    """A card row per task whose scene is perturbed (kind, level and the values drawn; the
+    BDDL file in ``meta/bddl/`` carries the same record, which reproduces it)."""
+    from libero_data.perturb.spec import Perturbation
+
+    rows = {}
+    for task in tasks:
+        p = Perturbation.from_json(task.problem.perturbation)
+        if p is not None:
+            rows[f"perturbation: {task.name}"] = p.describe()
+    return rows
 
 
 def _generator_settings(manifest: Mapping[str, Any], kept: int) -> dict[str, str]:

@@ -20,6 +20,7 @@ import json
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -45,6 +46,11 @@ class ProceduralSettings(Config):
     variants_of: str = ""  # a suite: make robustness variants of its tasks instead of new tasks
     kinds: tuple[str, ...] = ()  # variant kinds (``libero_data.procedural.variants.KINDS``)
     tasks: tuple[str, ...] = ()  # with variants_of: which tasks (default all)
+    levels: tuple[int, ...] = (1,)  # with variants_of: severity levels 1..5 (libero_data.perturb.levels)
+
+
+#: What settings saved before a field existed meant (a suite made then continues).
+LEGACY_SETTINGS: dict[str, Any] = {"levels": [1]}
 
 
 @dataclass
@@ -141,7 +147,7 @@ def make_suite(
             if on_verdict:
                 on_verdict(verdict)
         return done
-    folder.claim(settings.to_dict(), owner=out)
+    folder.claim(settings.to_dict(), owner=out, legacy=LEGACY_SETTINGS)
     candidates = _candidates(settings)
     verdicts: dict[int, Verdict] = {}
     states: dict[int, np.ndarray] = {}
@@ -185,7 +191,7 @@ def _finished(out: Path, folder: WorkFolder, settings: ProceduralSettings) -> li
     manifest, report = out / SUITE_MANIFEST, out / "procedural_report.json"
     if folder.root.exists() or not manifest.is_file() or not report.is_file():
         return None
-    made = json.loads(manifest.read_text())["generator"]["settings"]
+    made = {**LEGACY_SETTINGS, **json.loads(manifest.read_text())["generator"]["settings"]}
     changed = changed_keys(made, settings.to_dict())
     if changed:
         raise SettingsChanged(
@@ -203,7 +209,9 @@ def _candidates(settings: ProceduralSettings) -> list[tuple[SampledTask | None, 
         from libero_data.procedural.variants import variant_tasks
 
         candidates = list(
-            variant_tasks(settings.variants_of, settings.kinds, settings.seed, settings.tasks or None)
+            variant_tasks(
+                settings.variants_of, settings.kinds, settings.seed, settings.tasks or None, settings.levels
+            )
         )
     else:
         candidates = list(

@@ -1,11 +1,16 @@
-"""Robustness variants of shipped tasks: each differs from its source in one requested way.
+"""Robustness variants of shipped tasks: each differs from its source in one requested way, at
+a severity level 1–5 (magnitudes in :mod:`libero_data.perturb.levels`).
 
 - ``layout``: the movable objects start in new places (the scene's object rectangles, at
-  least :data:`MOVED` away from where the source task puts them);
-- ``distractors``: one or two objects the task is not about are added;
+  least the level's distance away from where the source task puts them; :data:`MOVED` at 1);
+- ``distractors``: as many objects the task is not about as the level says (as many as fit);
 - ``swap``: the object the task moves is replaced by another of the same kind (a white
-  bowl for the black one, ketchup for the tomato sauce), instruction updated;
-- ``language``: the instruction is paraphrased; the BDDL is otherwise unchanged.
+  bowl for the black one, ketchup for the tomato sauce), instruction updated; from level 2
+  also other objects the goal does not name, up to the level's count;
+- ``language``: the instruction is paraphrased (1), then made polite (2), given a context
+  phrase (3), synonyms (4) and a trailing clause (5); the BDDL is otherwise unchanged;
+- ``camera``, ``robot_init``, ``lighting``, ``texture``, ``noise``: the BDDL is the source's
+  with a perturbation record (:mod:`libero_data.perturb`), which the simulator applies.
 """
 
 from __future__ import annotations
@@ -19,14 +24,14 @@ from typing import Any
 import numpy as np
 
 from libero_data.bddl.model import Atom, Entity, Problem, Region, atoms
+from libero_data.perturb.levels import ENV_KINDS, KINDS, LEVELS, magnitude
 from libero_data.procedural.catalogue import Catalogue, SceneSpec, load_catalogue
 from libero_data.procedural.sampler import GAP, HALF_WIDTH, SampledTask, SamplingError
 from libero_data.procedural.templates import HARD_TO_GRASP, display
-from libero_data.seeding import variant_rng
+from libero_data.seeding import variant_level_rng
 
-KINDS = ("layout", "distractors", "swap", "language")
 FIXTURE_CLEARANCE = 0.2  # metres from a fixture's centre to any new object's footprint
-MOVED = 0.06  # metres between a moved object's new centre and its source region's centre
+MOVED = 0.06  # metres between a moved object's new centre and its source region's centre (level 1)
 
 #: Objects that can stand in for each other.
 KIND_GROUPS = (
@@ -66,6 +71,44 @@ def paraphrase(language: str) -> str:
         if re.match(pattern, language):
             return re.sub(pattern, repl, language)
     return f"please {language}"
+
+
+#: Language levels 2–5: openings, context phrases, word swaps and closings (chosen by the seed).
+POLITE = ("please ", "could you ", "i would like you to ", "go ahead and ")
+CONTEXT = (
+    "there are several things around so ",
+    "take a look at the scene and then ",
+    "without touching anything else ",
+    "when the arm is ready ",
+)
+SYNONYMS = {
+    "bowl": "dish",
+    "basket": "bin",
+    "cabinet": "cupboard",
+    "mug": "cup",
+    "stove": "cooktop",
+    "plate": "platter",
+    "grab": "grasp",
+    "put": "move",
+    "place": "move",
+    "shut": "close",
+}
+CLOSINGS = (" and then stop", " as carefully as you can", " and leave the rest as it is", " please")
+
+
+def reword(language: str, level: int, rng: np.random.Generator) -> str:
+    """The instruction reworded as far as ``level`` says (see :data:`~libero_data.perturb.levels.MAGNITUDES`)."""
+    m = magnitude("language", level)
+    text = paraphrase(language)
+    if m["synonyms"]:
+        text = " ".join(SYNONYMS.get(word, word) for word in text.split())
+    if m["politeness"] and not text.startswith("please "):
+        text = POLITE[int(rng.integers(len(POLITE)))] + text
+    if m["context_sentence"]:
+        text = CONTEXT[int(rng.integers(len(CONTEXT)))] + text
+    if m["trailing_clause"]:
+        text += CLOSINGS[int(rng.integers(len(CLOSINGS)))]
+    return text
 
 
 def scene_of(task_id: str, catalogue: Catalogue) -> SceneSpec | None:
@@ -125,6 +168,7 @@ def _free_centre(
     radius: float,
     taken: list[tuple[float, float, float]],
     avoid: tuple[float, float] | None = None,
+    moved: float = MOVED,
 ) -> tuple[float, float] | None:
     boxes = np.asarray(scene.boxes, dtype=float)
     # The table area LIBERO uses for objects in this layout, kept clear of the fixtures.
@@ -134,7 +178,7 @@ def _free_centre(
         c = (float(rng.uniform(lo[0], hi[0])), float(rng.uniform(lo[1], hi[1])))
         if any(np.hypot(c[0] - fx, c[1] - fy) < FIXTURE_CLEARANCE + radius for fx, fy in fixtures):
             continue
-        if avoid is not None and np.hypot(c[0] - avoid[0], c[1] - avoid[1]) < MOVED:
+        if avoid is not None and np.hypot(c[0] - avoid[0], c[1] - avoid[1]) < moved:
             continue
         if all(np.hypot(c[0] - x, c[1] - y) >= radius + r + GAP + 2 * HALF_WIDTH for x, y, r in taken):
             return c
@@ -148,23 +192,31 @@ def make_variant(
     rng: np.random.Generator,
     catalogue: Catalogue | None = None,
     language: str | None = None,
+    level: int = 1,
 ) -> Problem:
-    """One ``kind`` variant of ``source``; raises :class:`SamplingError` where none fits.
+    """One ``kind`` variant of ``source`` at ``level``; raises :class:`SamplingError` where none fits.
 
     ``language`` is the instruction policies are given (the task's; default the BDDL's).
     Every variant carries it in its BDDL (``:language``).
     """
-    catalogue = catalogue or load_catalogue()
+    from libero_data.perturb.spec import sample
+
     if kind not in KINDS:
         raise SamplingError(f"unknown variant kind {kind!r}; known: {', '.join(KINDS)}")
+    if level not in LEVELS:
+        raise SamplingError(f"the level must be 1..5, got {level}")
     language = (language or source.language).strip().lower()
     source = dataclasses.replace(source, language=language)
     if kind == "language":
-        return dataclasses.replace(source, language=paraphrase(language))
+        return dataclasses.replace(source, language=reword(language, level, rng))
+    if kind in ENV_KINDS:
+        perturbation = sample(kind, level, int(rng.integers(1 << 31)))
+        return dataclasses.replace(source, perturbation=perturbation.to_json())
+    catalogue = catalogue or load_catalogue()
     scene = scene_of(task_id, catalogue)
     if scene is None:
         raise SamplingError(f"{task_id} has no scene layout in the catalogue")
-    return _SCENE_VARIANTS[kind](_Source(source, task_id, scene, catalogue), rng)
+    return _SCENE_VARIANTS[kind](_Source(source, task_id, scene, catalogue, level), rng)
 
 
 @dataclass(frozen=True)
@@ -175,6 +227,7 @@ class _Source:
     task_id: str
     scene: SceneSpec
     catalogue: Catalogue
+    level: int = 1
 
     @property
     def category(self) -> dict[str, str]:
@@ -195,8 +248,9 @@ def _layout_variant(src: _Source, rng: np.random.Generator) -> Problem:
     fixed = [(*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items() if n not in starts]
     taken = list(fixed)
     new: dict[str, tuple[float, float]] = {}
+    moved = float(magnitude("layout", src.level)["min_move_m"])
     for name in sorted(starts, key=lambda n: -radius[n]):
-        c = _free_centre(rng, src.scene, radius[name], taken, avoid=_centre(starts[name]))
+        c = _free_centre(rng, src.scene, radius[name], taken, avoid=_centre(starts[name]), moved=moved)
         if c is None:
             raise SamplingError(f"{src.task_id}: no new place for {name}")
         new[name] = c
@@ -205,7 +259,7 @@ def _layout_variant(src: _Source, rng: np.random.Generator) -> Problem:
 
 
 def _distractor_variant(src: _Source, rng: np.random.Generator) -> Problem:
-    """One or two objects added where they fit, of kinds LIBERO shows in such scenes."""
+    """As many objects as the level says added where they fit, of kinds LIBERO shows in such scenes."""
     source, table, catalogue = src.problem, src.scene.table, src.catalogue
     present = set(src.category.values())
     seen = catalogue.seen_in.get(src.scene.kind, {})
@@ -214,7 +268,7 @@ def _distractor_variant(src: _Source, rng: np.random.Generator) -> Problem:
         for c, spec in sorted(catalogue.objects.items())
         if c not in present and spec.graspable and spec.radius <= 0.07 and c in seen
     ]
-    k = int(rng.integers(1, 3))
+    k = int(magnitude("distractors", src.level)["count"])
     chosen = [pool[int(i)] for i in rng.choice(len(pool), size=min(k, len(pool)), replace=False)]
     radius = src.radius
     taken = [(*_centre(r), radius[n]) for n, r in _table_starts_all(source, table).items()]
@@ -235,7 +289,8 @@ def _distractor_variant(src: _Source, rng: np.random.Generator) -> Problem:
 
 
 def _swap_variant(src: _Source, rng: np.random.Generator) -> Problem:
-    """The object the goal moves replaced by another of its kind; the instruction follows."""
+    """The object the goal moves replaced by another of its kind, the instruction following;
+    from level 2 also objects the goal does not name, up to the level's count."""
     source, category, language = src.problem, src.category, src.problem.language
     moved = next(
         (a.args[0] for a in atoms(source.goal) if a.predicate in ("On", "In") and a.args[0] in category), None
@@ -243,22 +298,51 @@ def _swap_variant(src: _Source, rng: np.random.Generator) -> Problem:
     if moved is None:
         raise SamplingError(f"{src.task_id}: the goal moves no object")
     old = category[moved]
-    group = next((g for g in KIND_GROUPS if old in g), None)
-    present = set(category.values())
-    options = [c for c in (group or ()) if c != old and c not in present and c not in HARD_TO_GRASP]
+    options = _stand_ins(old, set(category.values()))
     words = display(old)
     if not re.search(rf"\b{re.escape(words)}\b", language):
         words = "the " + words.split()[-1]  # "put the bowl ..." for the black bowl
     if not options or not re.search(rf"\b{re.escape(words)}\b", language):
         raise SamplingError(f"{src.task_id}: no object of the same kind can stand in for {old}")
     new_cat = options[int(rng.integers(len(options)))]
-    new_name = f"{new_cat}_1"
+    problem = _replace_object(source, moved, new_cat)
+    problem = dataclasses.replace(
+        problem,
+        language=re.sub(
+            rf"\b{re.escape(words)}\b",
+            ("the " if words.startswith("the ") else "") + display(new_cat),
+            language,
+            count=1,
+        ),
+    )
+    named = {a for atom in atoms(source.goal) for a in atom.args}
+    extra = int(magnitude("swap", src.level)["objects"]) - 1
+    for name in sorted(category):
+        if extra <= 0:
+            break
+        present = {o.category for o in problem.objects}
+        choices = _stand_ins(category[name], present) if name not in named and name != moved else []
+        if choices:
+            problem = _replace_object(problem, name, choices[int(rng.integers(len(choices)))])
+            extra -= 1
+    return problem
+
+
+def _stand_ins(category: str, present: set[str]) -> list[str]:
+    """Categories that can stand in for ``category`` and are not in the scene yet."""
+    group = next((g for g in KIND_GROUPS if category in g), ())
+    return [c for c in group if c != category and c not in present and c not in HARD_TO_GRASP]
+
+
+def _replace_object(problem: Problem, old: str, new_category: str) -> Problem:
+    """``problem`` with object ``old`` replaced by a ``new_category`` object (regions, init, goal renamed)."""
+    new_name = f"{new_category}_1"
 
     def rename(name: str) -> str:
-        if name == moved:
+        if name == old:
             return new_name
-        if name.startswith(moved + "_"):
-            return new_name + name[len(moved) :]
+        if name.startswith(old + "_"):
+            return new_name + name[len(old) :]
         return name
 
     def swap_atom(a: Atom) -> Atom:
@@ -272,18 +356,12 @@ def _swap_variant(src: _Source, rng: np.random.Generator) -> Problem:
         return type(f)(swap_formula(f.term))
 
     return dataclasses.replace(
-        source,
-        language=re.sub(
-            rf"\b{re.escape(words)}\b",
-            ("the " if words.startswith("the ") else "") + display(new_cat),
-            language,
-            count=1,
-        ),
-        regions=tuple(dataclasses.replace(r, target=rename(r.target)) for r in source.regions),
-        objects=tuple(Entity(new_name, new_cat) if o.name == moved else o for o in source.objects),
-        obj_of_interest=tuple(rename(n) for n in source.obj_of_interest),
-        init=tuple(swap_atom(a) for a in source.init),
-        goal=swap_formula(source.goal),
+        problem,
+        regions=tuple(dataclasses.replace(r, target=rename(r.target)) for r in problem.regions),
+        objects=tuple(Entity(new_name, new_category) if o.name == old else o for o in problem.objects),
+        obj_of_interest=tuple(rename(n) for n in problem.obj_of_interest),
+        init=tuple(swap_atom(a) for a in problem.init),
+        goal=swap_formula(problem.goal),
     )
 
 
@@ -307,9 +385,15 @@ def _table_starts_all(problem: Problem, table: str) -> dict[str, Region]:
 
 
 def variant_tasks(
-    suite: str, kinds: Iterable[str], seed: int, tasks: Iterable[str] | None = None
+    suite: str,
+    kinds: Iterable[str],
+    seed: int,
+    tasks: Iterable[str] | None = None,
+    levels: Iterable[int] = (1,),
 ) -> Iterator[tuple[SampledTask | None, str, str, str]]:
-    """Variants of a shipped suite's tasks, in the order task × kind (as ``sample_tasks``)."""
+    """Variants of a shipped suite's tasks, in the order task × kind × level (as ``sample_tasks``).
+
+    A variant is named ``<task>__<kind>`` at level 1 and ``<task>__<kind>_l<level>`` above."""
     from libero_data.tasks import get_suite
 
     s = get_suite(suite)
@@ -318,13 +402,18 @@ def variant_tasks(
     for k in kinds:
         if k not in KINDS:
             raise SamplingError(f"unknown variant kind {k!r}; known: {', '.join(KINDS)}")
+    levels = list(levels)
     for task in chosen:
         for j, kind in enumerate(kinds):
-            rng = variant_rng(seed, task.index, j)
-            try:
-                problem = make_variant(task.problem, task.id, kind, rng, language=task.language)
-            except SamplingError as exc:
-                yield None, task.id, f"variant:{kind}", str(exc)
-                continue
-            name = f"{task.name}__{kind}"
-            yield SampledTask(name, task.id, f"variant:{kind}", problem), task.id, f"variant:{kind}", ""
+            for level in levels:
+                rng = variant_level_rng(seed, task.index, j, level)
+                template = f"variant:{kind}" if level == 1 else f"variant:{kind}:{level}"
+                try:
+                    problem = make_variant(
+                        task.problem, task.id, kind, rng, language=task.language, level=level
+                    )
+                except SamplingError as exc:
+                    yield None, task.id, template, str(exc)
+                    continue
+                name = f"{task.name}__{kind}" + ("" if level == 1 else f"_l{level}")
+                yield SampledTask(name, task.id, template, problem), task.id, template, ""

@@ -18,6 +18,7 @@ from libero_data.errors import BDDLError, InputError, MissingFileError, SceneErr
 from libero_data.sim.gl import select_backend
 from libero_data.sim.imports import import_libero
 from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
+from libero_data.sim.stepper import resting_open
 
 if TYPE_CHECKING:
     from libero_data.tasks import Task
@@ -98,6 +99,11 @@ class LiberoEnv:
         self._env = self._build()
         self._trim_step()
         self._fast: Any = None  # libero_data.sim.render.FastImages with render_quality="fast"
+        self.perturbation = _perturbation_of(self.problem.perturbation)
+        if self.perturbation is not None:
+            from libero_data.perturb.apply import apply_scene
+
+            apply_scene(self._env, self.perturbation)
         model_cameras = set(self._env.sim.model.camera_names)
         for name in unknown:
             if name not in model_cameras:
@@ -203,6 +209,11 @@ class LiberoEnv:
             np.random.set_state(saved)
         self._trim_step()  # robosuite builds new controllers on every reset
         self.set_state(self.get_state() if init_state is None else init_state)
+        if self.perturbation is not None and self.perturbation.kind == "robot_init":
+            from libero_data.perturb.apply import start_robot
+
+            start_robot(self._env, self.perturbation, seed)
+            self.set_state(self.get_state())
         if settle:
             for _ in range(settle):
                 self._physics_step(NOOP_ACTION)
@@ -236,7 +247,7 @@ class LiberoEnv:
             robot.controller.new_update = True
             # robosuite ramps the finger command a little every substep; "open" is the ramp's
             # resting value after any stretch of open commands.
-            robot.gripper.current_action = _resting_open(robot.gripper)
+            robot.gripper.current_action = resting_open(robot.gripper)
         sim.forward()
         self._env._post_process()
         self._env._update_observables(force=True)
@@ -352,6 +363,10 @@ class LiberoEnv:
         if render:
             for camera in self.config.cameras:
                 obs[camera] = self.render(camera)
+        if self.perturbation is not None and self.perturbation.kind == "noise":
+            from libero_data.perturb.apply import add_noise
+
+            add_noise(obs, self.perturbation, self.config.cameras if render else ())
         return obs
 
     def object_poses(self) -> dict[str, np.ndarray]:
@@ -403,26 +418,13 @@ def _zero_reward(action: Any = None) -> float:
     return 0.0
 
 
-_RESTING_OPEN: dict[tuple[type, int, float], np.ndarray] = {}
+def _perturbation_of(text: str) -> Any:
+    """The task's robustness perturbation (libero_data.perturb), or None."""
+    if not text:
+        return None
+    from libero_data.perturb.spec import Perturbation
 
-
-def _resting_open(gripper: Any) -> np.ndarray:
-    """A fresh copy of the gripper's command ramp after a long stretch of "open" commands.
-
-    Worked out once per gripper kind by running the ramp from zero (a few hundred small
-    steps, which every restored state used to pay) and then copied, so the value is the
-    same, bit for bit, as running it each time.
-    """
-    key = (type(gripper), int(gripper.dof), float(gripper.speed))
-    value = _RESTING_OPEN.get(key)
-    if value is None:
-        saved = gripper.current_action
-        gripper.current_action = np.zeros(gripper.dof)
-        for _ in range(int(np.ceil(2.0 / gripper.speed)) + 1):
-            gripper.format_action(np.array([-1.0]))
-        value = _RESTING_OPEN[key] = np.array(gripper.current_action, copy=True)
-        gripper.current_action = saved
-    return value.copy()
+    return Perturbation.from_json(text)
 
 
 def _resolve(task: Task | str | Path) -> tuple[Path, Task | None]:

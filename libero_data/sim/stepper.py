@@ -189,3 +189,25 @@ class ControlStepper:
                 arm.forward = True
         env.cur_time += env.control_timestep
         env._post_action(action)
+
+
+_RESTING_OPEN: dict[tuple[type, int, float], np.ndarray] = {}
+
+
+def resting_open(gripper: Any) -> np.ndarray:
+    """A fresh copy of the gripper's command ramp after a long stretch of "open" commands.
+
+    Worked out once per gripper kind by running the ramp from zero (a few hundred small
+    steps, which every restored state used to pay) and then copied, so the value is the
+    same, bit for bit, as running it each time.
+    """
+    key = (type(gripper), int(gripper.dof), float(gripper.speed))
+    value = _RESTING_OPEN.get(key)
+    if value is None:
+        saved = gripper.current_action
+        gripper.current_action = np.zeros(gripper.dof)
+        for _ in range(int(np.ceil(2.0 / gripper.speed)) + 1):
+            gripper.format_action(np.array([-1.0]))
+        value = _RESTING_OPEN[key] = np.array(gripper.current_action, copy=True)
+        gripper.current_action = saved
+    return value.copy()

@@ -245,6 +245,45 @@ def test_saliency(bench_run: Path, tmp_path: Path) -> None:
     assert len(list((tmp_path / "r").glob("frame_*.png"))) >= 1
 
 
+def test_robustness_sweep_of_a_smoke_policy(bench_run: Path, tmp_path: Path) -> None:
+    out = tmp_path / "sweep"
+    args = ["--tasks", "libero_goal/0", "--kinds", "camera,noise", "--levels", "1,5", "--rollouts", "2"]
+    args += ["--max-steps", "5", "--workers", "2", "--out", str(out)]
+    result = bench("robustness", str(bench_run), *args)
+    assert result.returncode == 0, result.stderr[-3000:]
+    summary = json.loads((out / "robustness.json").read_text())
+    grid = summary["table"]["grid"]
+    assert set(grid) == {"camera", "noise"}
+    for row in grid.values():
+        for level in ("0", "1", "5"):
+            entry = row[level]
+            assert entry["n"] == 2 and 0.0 <= entry["low"] <= entry["high"] <= 1.0
+    cells = summary["table"]["cells"]
+    assert [(c["kind"], c["level"]) for c in cells] == [
+        ("", 0),
+        ("camera", 1),
+        ("camera", 5),
+        ("noise", 1),
+        ("noise", 5),
+    ]
+    # Every cell starts from the same held-out placements of the source task.
+    rollouts = json.loads((out / "results.json").read_text())["rollouts"]
+    seeds = {r["task"]: [x["env_seed"] for x in rollouts if x["task"] == r["task"]] for r in rollouts}
+    assert len({tuple(s) for s in seeds.values()}) == 1 and len(rollouts) == 10
+    # Stored like every evaluation: a LeRobot dataset of the rollouts, an MCAP log each.
+    info = json.loads((out / "rollouts" / "meta" / "info.json").read_text())
+    assert info["total_episodes"] == 10
+    assert (out / "robustness.png").stat().st_size > 10_000 and "| camera |" in (
+        out / "robustness.md"
+    ).read_text()
+    # The variants are tasks of a suite folder that reproduces them.
+    from libero_data.tasks import get_suite
+
+    assert len(get_suite(out / "variants").tasks) == 5
+    again = bench("robustness", str(bench_run), *args)  # finished: nothing runs again
+    assert again.returncode == 0 and json.loads((out / "robustness.json").read_text()) == summary
+
+
 def test_resume_after_sigkill_gives_the_same_results(
     bench_run: Path, tiny_dataset: Path, tmp_path: Path
 ) -> None:

@@ -134,6 +134,25 @@ def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
     }
     assert not set(config["heldout_seeds"]["open_the_middle_drawer_of_the_cabinet"]) & demo_seeds
 
+    # The robustness sweep takes the LeRobot policy in place of a run.
+    sweep = tmp_path / "sweep"
+    args = ["--tasks", "libero_goal/0", "--kinds", "noise", "--levels", "2", "--rollouts", "1"]
+    result = _run(
+        sys.executable,
+        "-m",
+        "libero_bench.cli",
+        "robustness",
+        str(act),
+        *args,
+        "--max-steps",
+        "3",
+        "-o",
+        str(sweep),
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    grid = json.loads((sweep / "robustness.json").read_text())["table"]["grid"]
+    assert grid["noise"]["0"]["n"] == 1 and grid["noise"]["2"]["n"] == 1
+
     # lerobot-eval finds our environment plugin: a shipped task and a generated one.
     for task_ref in ("libero_goal/7", f"{procedural_suite}/0"):
         le = _run(

@@ -1,0 +1,1 @@
+"""Robustness perturbations: kinds, severity levels, and how each is applied to a scene."""
