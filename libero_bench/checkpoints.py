@@ -62,6 +62,36 @@ def save_checkpoint(
     return write_bytes(path, buffer.getvalue())
 
 
+def restore_rng(state: dict[str, Any]) -> None:
+    """Put the random streams back where :func:`rng_state` found them."""
+    import torch
+
+    torch.set_rng_state(state["torch"])
+    np.random.set_state(state["numpy"])
+    random.setstate(state["python"])
+
+
+def save_epoch_state(path: Path, state: dict[str, Any]) -> Path:
+    """Write the state after a finished epoch of the task in progress atomically."""
+    import torch
+
+    buffer = io.BytesIO()
+    torch.save({"format": RUN_FORMAT, **state, "rng": rng_state()}, buffer)
+    return write_bytes(path, buffer.getvalue())
+
+
+def load_epoch_state(path: Path, positions: list[int]) -> dict[str, Any] | None:
+    """The state :func:`save_epoch_state` wrote for these task positions, or None."""
+    import torch
+
+    if not path.is_file():
+        return None
+    data = torch.load(path, map_location="cpu", weights_only=False)
+    if data.get("format") != RUN_FORMAT or data.get("positions") != positions:
+        return None
+    return dict(data)
+
+
 def load_checkpoint(path: Path, policy: Policy, algo: Algo) -> None:
     """Load a checkpoint's policy weights and algorithm state (and bind the two)."""
     import torch

@@ -8,6 +8,8 @@
       timings.jsonl       seconds per epoch / evaluation round (not part of the results)
       run.log             the library's log (written by the CLI)
       checkpoints/task_NNN.pt   policy + algorithm state + RNG after each task (resume point)
+      checkpoints/task_NNN.epoch.pt  the same plus optimiser, schedule and results after the
+                                last finished epoch of the task in progress (removed when it ends)
       rollouts/           every evaluation rollout as one LeRobot dataset (+ mcap/ per rollout)
       rrd/<key>.rrd       a Rerun recording per rollout
       .work/              shards and scratch files while running
@@ -239,11 +241,23 @@ class RunFolder:
     def checkpoint(self, task: int) -> Path:
         return self.checkpoints / f"task_{task:03d}.pt"
 
+    def epoch_state(self, task: int) -> Path:
+        return self.checkpoints / f"task_{task:03d}.epoch.pt"
+
     def shard(self, key: str) -> Path:
         return self.shards / key
 
     def rrd_file(self, key: str) -> Path:
         return self.rrd / f"{key}.rrd"
+
+    def is_run(self) -> bool:
+        """Whether the folder holds a libero-bench run (a LeRobot policy folder has a config.json too)."""
+        if not self.config.is_file():
+            return False
+        try:
+            return bool(json.loads(self.config.read_text()).get("format") == RUN_FORMAT)
+        except (json.JSONDecodeError, AttributeError):
+            return False
 
     def read_config(self) -> dict[str, Any]:
         if not self.config.is_file():

@@ -22,7 +22,9 @@ Everything a run writes lives in its folder (:mod:`libero_bench.run_files`). ``r
 is rewritten after every task stage, the checkpoint before it; running the same command
 again continues after the last finished stage with the same numbers (every task reseeds
 torch from the run seed and the task's position, :func:`libero_data.seeding.run_seed`;
-loaders shuffle from the same seeds).
+loaders shuffle from the same seeds). Within a task, the state after each finished epoch
+(weights, optimiser, schedule, best weights so far, results, random streams) is saved too, so
+an interrupted task goes on after its last finished epoch, again with the same numbers.
 """
 
 from __future__ import annotations
@@ -37,7 +39,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from libero_bench import evaluate
-from libero_bench.checkpoints import load_checkpoint, load_initial_weights, save_checkpoint, seed_everything
+from libero_bench.checkpoints import (
+    load_checkpoint,
+    load_epoch_state,
+    load_initial_weights,
+    restore_rng,
+    save_checkpoint,
+    save_epoch_state,
+    seed_everything,
+)
 from libero_bench.fitting import loss_epoch, make_loader, make_optimiser, train_epoch
 from libero_bench.observer import RunObserver
 from libero_bench.plan import (
@@ -256,6 +266,7 @@ class Trainer:
             results.post_losses[tau] = self._post_task(policy, algo, loader, tau)
         logger.info("task %d kept the weights of epoch %s", tau, best)
         self._save_checkpoint(tau, "trained", policy, algo)
+        self.folder.epoch_state(tau).unlink(missing_ok=True)
         results.stage[tau] = "trained"
         self._write_results(results)
 
@@ -277,7 +288,17 @@ class Trainer:
         best_epoch: int | None = None
         losses: list[dict[str, float]] = []
         name = self.plan.tasks[positions[0]].name if len(positions) == 1 else "all tasks"
-        for epoch in range(p.epochs + 1):
+        state_path = self.folder.epoch_state(positions[0])
+        first = 0
+        saved = load_epoch_state(state_path, positions)
+        if saved is not None:  # an interrupted task: go on after its last finished epoch
+            first = saved["epoch"] + 1
+            best_rate, best_epoch, best_state, losses = (
+                saved[k] for k in ("best_rate", "best_epoch", "best_state", "losses")
+            )
+            _restore_training(saved, results, policy, algo, optimiser, scheduler)
+            logger.info("%s: resuming after epoch %d of %d", name, saved["epoch"], p.epochs)
+        for epoch in range(first, p.epochs + 1):
             loader.set_epoch(epoch)
             started = time.perf_counter()
             label = f"{name}: epoch {epoch}/{p.epochs}"
@@ -312,6 +333,22 @@ class Trainer:
                     best_state = {k: v.detach().clone() for k, v in policy.state_dict().items()}
             if scheduler is not None and epoch > 0:
                 scheduler.step()
+            save_epoch_state(
+                state_path,
+                {
+                    "positions": positions,
+                    "epoch": epoch,
+                    "policy": policy.state_dict(),
+                    "algo": algo.state_dict(),
+                    "optimiser": optimiser.state_dict(),
+                    "scheduler": scheduler.state_dict() if scheduler is not None else None,
+                    "best_rate": best_rate,
+                    "best_epoch": best_epoch,
+                    "best_state": best_state,
+                    "losses": losses,
+                    "results": results.to_dict(),
+                },
+            )
         if not p.keep_best:
             best_epoch = p.epochs  # keep the last weights
         elif best_state is not None:
@@ -349,6 +386,7 @@ class Trainer:
             factory_loader = self._loader(everything, seed=run_seed(self.plan.seed, 0, END_TASK_LOADER))
             algo.end_task(0, lambda: iter(factory_loader))
             self._save_checkpoint(0, "trained", policy, algo)
+            self.folder.epoch_state(0).unlink(missing_ok=True)
             kept = self.eval_epochs.index(best) if best is not None else len(self.eval_epochs) - 1
             for tau in range(self.K):
                 for k in range(self.K):
@@ -374,3 +412,18 @@ def run_lifelong(
     """Plan and run (or resume) a lifelong run into ``out``."""
     plan = plan_run(request)
     return Trainer(plan, Path(out), options, observer).run()
+
+
+def _restore_training(
+    saved: dict[str, Any], results: RunResults, policy: Policy, algo: Algo, optimiser: Any, scheduler: Any
+) -> None:
+    """Weights, algorithm state, optimiser, schedule, results and random streams as they were
+    after the saved epoch, so the task goes on as if it had not been interrupted."""
+    policy.load_state_dict(saved["policy"])
+    algo.load_state_dict(saved["algo"])
+    algo.bind(policy)
+    optimiser.load_state_dict(saved["optimiser"])
+    if scheduler is not None and saved["scheduler"] is not None:
+        scheduler.load_state_dict(saved["scheduler"])
+    vars(results).update(vars(RunResults.from_dict(saved["results"])))
+    restore_rng(saved["rng"])
