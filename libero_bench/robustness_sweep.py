@@ -36,7 +36,7 @@ def sweep(
     out = Path(out).resolve()
     policy = Path(policy).resolve()
     cells = make_cells(request, out / VARIANTS)
-    if RunFolder(policy).config.is_file():
+    if RunFolder(policy).is_run():
         from libero_bench.robustness_run import run_outcomes
 
         outcomes, name = run_outcomes(policy, request, cells, out, workers, on_result, on_total)
