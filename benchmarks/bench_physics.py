@@ -30,7 +30,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
 
-from benchmarks.bench_render import _interleaved_rates
+from benchmarks.bench_render import interleaved_rates
 
 DEFAULT_TASKS = ["libero_goal/0", "libero_10/9", "libero_90/40"]
 
@@ -68,7 +68,7 @@ def measure(task_ref: str, steps: int, reps: int, seed: int) -> dict[str, float]
                 mujoco.mj_step1(model, data)
                 mujoco.mj_step2(model, data)
 
-        rates = _interleaved_rates(
+        rates = interleaved_rates(
             {
                 "libero": lambda: run(theirs.advance),
                 "ours": lambda: run(ours.advance),

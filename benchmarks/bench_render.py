@@ -31,7 +31,7 @@ import numpy as np
 NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
 
 
-def _interleaved_rates(
+def interleaved_rates(
     fns: dict[str, Callable[[], object]],
     before: dict[str, Callable[[], object]],
     frames: int,
@@ -89,7 +89,7 @@ def measure(task_ref: str, size: int, frames: int, reps: int) -> dict[str, float
             # robosuite renders into the current OpenGL context: LIBERO's own env needs its
             # context made current before its rounds (LiberoEnv.render does this itself).
             libero_gl = libero_env.env.sim._render_context_offscreen.gl_ctx
-            out = _interleaved_rates(
+            out = interleaved_rates(
                 {
                     "ours_step": lambda: env.step(NOOP),
                     "ours_two_cameras": lambda: (env.render("agentview"), env.render("eye_in_hand")),

@@ -33,25 +33,12 @@ os.environ.setdefault("SVT_LOG", "1")
 
 import numpy as np
 
+from benchmarks.bench_render import interleaved_rates
+
 NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
 PUSH = np.array([0.3, -0.2, -0.25, 0.0, 0.0, 0.1, -1.0])
 CAMERAS = ("agentview", "eye_in_hand")
 TASKS = "libero_spatial/0,libero_object/0,libero_goal/0,libero_10/0,libero_90/0"
-
-
-def _median_seconds(fns: dict[str, Any], before: dict[str, Any], frames: int, reps: int) -> dict[str, float]:
-    for name, fn in fns.items():  # warm-up
-        before.get(name, lambda: None)()
-        fn()
-    times: dict[str, list[float]] = {name: [] for name in fns}
-    for _ in range(reps):
-        for name, fn in fns.items():
-            before.get(name, lambda: None)()
-            start = time.perf_counter()
-            for _ in range(frames):
-                fn()
-            times[name].append((time.perf_counter() - start) / frames)
-    return {name: statistics.median(t) for name, t in times.items()}
 
 
 def encoding_error(frames: list[np.ndarray]) -> float:
@@ -124,7 +111,7 @@ def measure(ref: str, size: int, frames: int, reps: int, states: int, cache: str
             fast.reset(init, seed=0, render=False)
             gl = libero.env.sim._render_context_offscreen.gl_ctx
             out.update(
-                _median_seconds(
+                interleaved_rates(
                     {
                         "libero_step": lambda: libero.step(NOOP),
                         "fast_step": lambda: fast.step(NOOP),

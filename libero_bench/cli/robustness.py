@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import RenderQuality, progress, say, split_list, user_errors
+from libero_data.cli.common import RenderQuality, rollout_progress, say, split_list, user_errors
 
 
 @user_errors
@@ -78,17 +78,7 @@ def robustness_cmd(
         seed=seed,
         render_quality=render_quality,
     )
-    with progress("succeeded") as bar:
-        job = bar.add_task("rollouts", total=None, succeeded="")
-        wins = {"yes": 0, "all": 0}
-
-        def done(result: Any) -> None:
-            wins["yes"] += bool(result.success)
-            wins["all"] += 1
-            bar.update(job, advance=1, succeeded=f"{wins['yes']}/{wins['all']} succeeded")
-
-        sweep(
-            policy, request, out, workers=workers, on_result=done, on_total=lambda n: bar.update(job, total=n)
-        )
+    with rollout_progress() as (done, total):
+        sweep(policy, request, out, workers=workers, on_result=done, on_total=total)
     say((out / f"{REPORT}.md").read_text())
     say(f"wrote {out / f'{REPORT}.md'}, {out / f'{REPORT}.json'}, {out / f'{REPORT}.png'}")

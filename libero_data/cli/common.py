@@ -110,6 +110,22 @@ def progress(*fields: str, stderr: bool = True, eta: bool = True) -> Iterator[An
         yield bar
 
 
+@contextmanager
+def rollout_progress() -> Iterator[tuple[Callable[[Any], None], Callable[[int], None]]]:
+    """A progress bar of rollouts with a running success count: yields the callbacks
+    (``on_result`` for each finished rollout, ``on_total`` once the number is known)."""
+    with progress("succeeded") as bar:
+        job = bar.add_task("rollouts", total=None, succeeded="")
+        wins = {"yes": 0, "all": 0}
+
+        def done(result: Any) -> None:
+            wins["yes"] += bool(result.success)
+            wins["all"] += 1
+            bar.update(job, advance=1, succeeded=f"{wins['yes']}/{wins['all']} succeeded")
+
+        yield done, lambda n: bar.update(job, total=n)
+
+
 # -- options several commands take ------------------------------------------------------------------
 Workers = Annotated[
     int, typer.Option("--workers", "-w", help="Parallel worker processes (simulation and rendering).", min=1)

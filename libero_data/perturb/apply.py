@@ -155,7 +155,6 @@ def _retexture(model: Any, params: dict[str, Any]) -> list[int]:
     return changed
 
 
-#: Where installed texture images live: (package, folder inside it).
 def _upload(raw: Any, model: Any, textures: list[int]) -> None:
     """Send changed texture images to robosuite's renderer (ours builds its context later)."""
     import mujoco

