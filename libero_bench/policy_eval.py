@@ -25,6 +25,7 @@ from libero_bench.evaluate import EvalTask, RolloutJob, RolloutResult, make_job,
 from libero_bench.intervals import Rate
 from libero_bench.run_files import HELDOUT, STARTS, STORED, RunFolder
 from libero_data.errors import InputError
+from libero_data.pipeline.request import state_width
 from libero_data.runtime.files import write_json, write_text
 from libero_data.runtime.folder import WorkFolder
 from libero_data.runtime.jobs import Executor, JobRunner
@@ -173,7 +174,7 @@ def evaluate_policy(
             for e in eval_tasks
         ]
     width = max(
-        len(e.init_states[0]) if e.init_states is not None else _width(t)
+        len(e.init_states[0]) if e.init_states is not None else state_width(t)
         for e, t in zip(eval_tasks, tasks, strict=True)
     )
     folder = RunFolder(Path(out).resolve())
@@ -217,14 +218,6 @@ def evaluate_policy(
     write_json(results_path, {"rollouts": records, "complete": True, "versions": versions(python=True)})
     _finish(folder, settings, records, summary)
     return summary
-
-
-def _width(task: Any) -> int:
-    """The width of a task's MuJoCo state (for a task without stored init states to tell it)."""
-    from libero_data.sim import EnvConfig, LiberoEnv
-
-    with LiberoEnv(task, EnvConfig(cameras=())) as env:
-        return int(env.state_dim)
 
 
 def _record(job: RolloutJob, result: RolloutResult) -> dict[str, Any]:

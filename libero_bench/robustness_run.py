@@ -17,6 +17,10 @@ from typing import Any
 
 from libero_bench.robustness import Cell, SweepRequest, heldout_seeds
 from libero_data.errors import RunError
+from libero_data.pipeline.request import state_width
+
+#: Kinds whose scenes may hold more or other bodies than their source task.
+WIDER_KINDS = ("distractors", "swap")
 
 
 def run_outcomes(
@@ -61,8 +65,10 @@ def run_outcomes(
         for r in (json.loads(results_path.read_text())["rollouts"] if results_path.is_file() else [])
     }
     records = dict(done)
+    # Distractors add objects and a swap may bring another body: the widest state sets the width.
+    width = max([source.sim_state_width, *(state_width(c.bddl) for c in live if c.kind in WIDER_KINDS)])
     jobs_by_position = _jobs(
-        live, names, embeddings[len(languages) :], seeds, request, done, out, preset, source
+        live, names, embeddings[len(languages) :], seeds, request, done, out, preset, width
     )
     if on_total:
         on_total(len(done) + sum(len(j) for j in jobs_by_position.values()))
@@ -102,7 +108,7 @@ def _jobs(
     done: dict[str, Any],
     out: Path,
     preset: dict[str, Any],
-    source: Any,
+    width: int,
 ) -> dict[int, list[Any]]:
     """The rollouts still to run, grouped by the source task's position (its evaluation view)."""
     from libero_bench.evaluate import EvalTask, make_job
@@ -131,7 +137,7 @@ def _jobs(
                     settle=request.settle,
                     max_steps=request.max_steps,
                     image_size=int(preset["image_size"]),
-                    sim_state_width=source.sim_state_width,
+                    sim_state_width=width,
                     shard_dir=f"shards/{key}",
                     rrd_path=f"rrd/{key}.rrd",
                     tags={

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from libero_data.config import Config
 from libero_data.errors import InputError
@@ -149,8 +150,13 @@ def sim_state_width(request: GenerateRequest) -> int:
         if task.init_states_path is not None:
             widths.append(int(task.init_states().shape[1]))
         else:
-            from libero_data.sim import EnvConfig, LiberoEnv
-
-            with LiberoEnv(task, EnvConfig(cameras=())) as env:
-                widths.append(env.state_dim)
+            widths.append(state_width(task))
     return max(widths)
+
+
+def state_width(task: Any) -> int:
+    """The width of a task's flattened MuJoCo state (a task, or a BDDL path), from its model."""
+    from libero_data.sim import EnvConfig, LiberoEnv
+
+    with LiberoEnv(task, EnvConfig(cameras=())) as env:
+        return int(env.state_dim)

@@ -247,22 +247,38 @@ def test_saliency(bench_run: Path, tmp_path: Path) -> None:
 
 def test_robustness_sweep_of_a_smoke_policy(bench_run: Path, tmp_path: Path) -> None:
     out = tmp_path / "sweep"
-    args = ["--tasks", "libero_goal/0", "--kinds", "camera,noise", "--levels", "1,5", "--rollouts", "2"]
+    # libero_goal/0 has no room for a distractor: those cells are reported, not run
+    args = [
+        "--tasks",
+        "libero_goal/0",
+        "--kinds",
+        "camera,noise,distractors",
+        "--levels",
+        "1,5",
+        "--rollouts",
+        "2",
+    ]
     args += ["--max-steps", "5", "--workers", "2", "--out", str(out)]
     result = bench("robustness", str(bench_run), *args)
     assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads((out / "robustness.json").read_text())
     grid = summary["table"]["grid"]
-    assert set(grid) == {"camera", "noise"}
-    for row in grid.values():
+    assert set(grid) == {"camera", "noise", "distractors"}
+    assert grid["distractors"]["1"]["n"] == grid["distractors"]["5"]["n"] == 0
+    reasons = {c["reason"] for c in summary["table"]["cells"] if c["kind"] == "distractors"}
+    assert reasons == {"libero_goal/0: no room for a distractor"}
+    assert "no room for a distractor" in (out / "robustness.md").read_text()
+    for row in (grid["camera"], grid["noise"]):
         for level in ("0", "1", "5"):
             entry = row[level]
             assert entry["n"] == 2 and 0.0 <= entry["low"] <= entry["high"] <= 1.0
     cells = summary["table"]["cells"]
-    assert [(c["kind"], c["level"]) for c in cells] == [
+    assert sorted((c["kind"], c["level"]) for c in cells) == [
         ("", 0),
         ("camera", 1),
         ("camera", 5),
+        ("distractors", 1),
+        ("distractors", 5),
         ("noise", 1),
         ("noise", 5),
     ]

@@ -207,3 +207,28 @@ def test_contact_sheet_of_a_kind_shows_six_levels(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     with Image.open(out) as img:
         assert img.width > 2 * img.height  # six columns (the source and levels 1-5) over two rows
+
+
+@pytest.mark.sim
+def test_only_the_kinds_the_sweep_widens_for_change_the_simulator_state_width(tmp_path: Path) -> None:
+    from libero_bench.robustness_run import WIDER_KINDS
+    from libero_data.pipeline.request import state_width
+
+    task = get_task("libero_object/0")
+    source = state_width(task)
+    from libero_data.procedural.sampler import SamplingError
+
+    for kind in KINDS:
+        rng = variant_level_rng(0, task.index, 0, 1)
+        try:
+            problem = make_variant(task.problem, task.id, kind, rng, language=task.language, level=1)
+        except SamplingError:  # no variant of this kind for this task (e.g. nothing to swap in)
+            continue
+        path = tmp_path / f"{kind}.bddl"
+        path.write_text(write(problem))
+        width = state_width(path)
+        if kind in WIDER_KINDS:
+            assert width >= source, kind
+        else:
+            assert width == source, kind
+    assert state_width(tmp_path / "distractors.bddl") > source  # the sweep would have cut these states
