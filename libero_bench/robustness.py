@@ -171,7 +171,9 @@ def markdown(summary: dict[str, Any], levels: tuple[int, ...]) -> str:
         f"Success per kind and level, pooled over {len(summary['request']['tasks'])} task(s), "
         f"{summary['request']['rollouts']} held-out placements per task and cell (the same at every level), "
         "with 95% Wilson intervals and the drop from the unperturbed tasks (level 0: "
-        f"{cell(base)}, {base['successes']}/{base['n']}).",
+        f"{cell(base)}, {base['successes']}/{base['n']}). Rollouts of at most "
+        f"{summary['request']['max_steps']} steps with `{summary['request']['render_quality']}` images; "
+        f"variants drawn with seed {summary['request']['seed']}.",
         "",
         "| kind | " + " | ".join(f"level {level}" for level in levels) + " |",
         "|---|" + "---:|" * len(levels),
@@ -179,8 +181,10 @@ def markdown(summary: dict[str, Any], levels: tuple[int, ...]) -> str:
     for kind, row in summary["table"]["grid"].items():
         lines.append(f"| {kind} | " + " | ".join(cell(row[str(level)]) for level in levels) + " |")
     missing = [c for c in summary["table"]["cells"] if c["reason"]]
+    if missing:
+        lines.append("")
     lines += [
-        f"\n- no {c['kind']} variant of level {c['level']} for {c['source']}: {c['reason']}" for c in missing
+        f"- no {c['kind']} variant of level {c['level']} for {c['source']}: {c['reason']}" for c in missing
     ]
     return "\n".join(lines) + "\n"
 

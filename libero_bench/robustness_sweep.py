@@ -32,6 +32,7 @@ def sweep(
 ) -> dict[str, Any]:
     """Run the sweep for ``policy`` (a libero-bench run folder or a LeRobot policy folder)."""
     from libero_bench.run_files import RunFolder
+    from libero_data.runtime.versions import versions
 
     out = Path(out).resolve()
     policy = Path(policy).resolve()
@@ -46,6 +47,7 @@ def sweep(
         "policy": str(policy),
         "policy_name": name,
         "request": dataclasses.asdict(request),
+        "versions": versions(),
         "table": table(cells, outcomes, request.kinds, request.levels),
     }
     write_report(out, summary, request.levels)
