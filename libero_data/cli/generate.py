@@ -66,7 +66,7 @@ VariantsOf = Annotated[
     str | None,
     typer.Option(
         "--variants-of",
-        help="Make robustness variants of this suite's tasks (--tasks to choose some), each proven "
+        help="Make robustness variants of this suite's tasks (--tasks to choose some; SUITE/TASK for one), each proven "
         "feasible with the expert, with their dataset, into --out.",
     ),
 ]
@@ -342,6 +342,7 @@ def _procedural_suite(
     if variants_of is not None:
         from libero_data.tasks import get_suite
 
+        variants_of, tasks = _variant_source(variants_of, tasks)
         source = get_suite(variants_of)
         chosen_kinds = split_list(kinds) or list(SCENE_KINDS)
         bad = [k for k in chosen_kinds if k not in KINDS]
@@ -377,3 +378,19 @@ def _procedural_suite(
     if kept_n == 0:
         raise fail(f"none of the {settings.n} sampled tasks was kept; see {out / 'procedural_report.md'}")
     return out
+
+
+def _variant_source(variants_of: str, tasks: list[str]) -> tuple[str, list[str]]:
+    """``SUITE/TASK`` (e.g. ``libero_object/0``) is shorthand for ``SUITE --tasks TASK``; a suite
+    folder's path stays whole."""
+    from libero_data.errors import InputError
+
+    if "/" not in variants_of or Path(variants_of).is_dir():
+        return variants_of, tasks
+    suite, task = variants_of.rsplit("/", 1)
+    if tasks:
+        raise InputError(
+            f"--variants-of {variants_of} names a task already; leave out --tasks or give the suite alone",
+            field="tasks",
+        )
+    return suite, [task]

@@ -165,7 +165,7 @@ def test_generate_variants_of_the_new_kinds_writes_a_dataset_that_replays(tmp_pa
     from tests.pipeline.conftest import run_cli
 
     out = tmp_path / "variants"
-    args = ["--variants-of", "libero_object", "--tasks", "0", "--kinds", ",".join(ENV_KINDS), "--level", "3"]
+    args = ["--variants-of", "libero_object/0", "--kinds", ",".join(ENV_KINDS), "--level", "3"]
     args += ["--episodes-per-task", "1", "--image-size", "64", "--workers", "2", "--out", str(out)]
     result = run_cli("generate", *args)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -232,3 +232,14 @@ def test_only_the_kinds_the_sweep_widens_for_change_the_simulator_state_width(tm
         else:
             assert width == source, kind
     assert state_width(tmp_path / "distractors.bddl") > source  # the sweep would have cut these states
+
+
+def test_variants_of_a_task_and_tasks_together_is_refused_before_any_work(tmp_path: Path) -> None:
+    from tests.pipeline.conftest import run_cli
+
+    out = tmp_path / "v"
+    result = run_cli(
+        "generate", "--variants-of", "libero_object/0", "--tasks", "1", "--kinds", "camera", "--out", str(out)
+    )
+    assert result.returncode == 2 and "names a task already" in result.stderr
+    assert not out.exists()
