@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import RenderQuality, rollout_progress, say, split_list, user_errors
+from libero_data.cli.common import (
+    RenderQuality,
+    quiet_environment,
+    rollout_progress,
+    say,
+    split_list,
+    user_errors,
+)
 
 
 @user_errors
@@ -50,8 +56,7 @@ def eval_cmd(
     The policy's inputs are served from its declared features (either camera naming, any image size, the 8-D
     state) and its own pre- and post-processors run as in lerobot-eval.
     """
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    os.environ.setdefault("SVT_LOG", "1")
+    quiet_environment()
     from libero_bench.policy_eval import EvalRequest, evaluate_policy, markdown
 
     request = EvalRequest(

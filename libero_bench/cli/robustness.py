@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import RenderQuality, rollout_progress, say, split_list, user_errors
+from libero_data.cli.common import (
+    RenderQuality,
+    quiet_environment,
+    rollout_progress,
+    say,
+    split_list,
+    user_errors,
+)
 
 
 @user_errors
@@ -57,8 +63,7 @@ def robustness_cmd(
     Every cell starts from the same held-out placements of its source task, so kinds that keep the scene
     (camera, lighting, texture, noise, robot start, language) are compared start for start.
     """
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    os.environ.setdefault("SVT_LOG", "1")
+    quiet_environment()
     from libero_bench.robustness import REPORT, SweepRequest
     from libero_bench.robustness_sweep import sweep
     from libero_data.errors import InputError

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import os
 import sys
 import time
 from pathlib import Path
@@ -11,7 +10,15 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from libero_data.cli.common import ExecutorKind, RayAddress, console, say, split_list, user_errors
+from libero_data.cli.common import (
+    ExecutorKind,
+    RayAddress,
+    console,
+    quiet_environment,
+    say,
+    split_list,
+    user_errors,
+)
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -78,7 +85,7 @@ def run_cmd(
     render_quality: EvalRenderQuality = None,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
-    _quiet_environment(threads)
+    quiet_environment(threads)
     import torch
 
     from libero_bench.plan import RunOptions, RunRequest, check_device, check_out_folder, plan_run
@@ -127,12 +134,6 @@ def run_cmd(
 
     print_table(table_rows(summarize([load_run(out)])))
     say(f"report with plots: libero-bench report {out}")
-
-
-def _quiet_environment(threads: int) -> None:
-    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
-    os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per rollout video
-    os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")  # the sentence encoder's loading bar
 
 
 class _RunLogging:

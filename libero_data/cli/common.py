@@ -110,6 +110,16 @@ def progress(*fields: str, stderr: bool = True, eta: bool = True) -> Iterator[An
         yield bar
 
 
+def quiet_environment(threads: int = 1) -> None:
+    """Defaults for a command that trains or rolls out: torch/BLAS threads, and no AV1 encoder
+    banner per video or sentence-encoder loading bar (a user's own settings win)."""
+    import os
+
+    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
+    os.environ.setdefault("SVT_LOG", "1")
+    os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
+
+
 @contextmanager
 def rollout_progress() -> Iterator[tuple[Callable[[Any], None], Callable[[int], None]]]:
     """A progress bar of rollouts with a running success count: yields the callbacks
