@@ -7,7 +7,9 @@
 # 1. 50 demonstrations of each of the first three libero_object tasks, 64x64, starting from
 #    LIBERO's sampler (no stored init state: the evaluation's stored starts are unseen).
 # 2. Each task trained alone (SeqL on a one-task list), quick preset: 20 stored and 20
-#    held-out evaluation starts per task.
+#    held-out evaluation starts per task, drawn with `--render-quality fast` (simplified
+#    meshes: 4.3x cheaper rollouts on CPU, no detectable effect on this policy's success;
+#    RESULTS.md "Fast rendering: policy check"). Training images are the dataset's (full).
 # 3. The three tasks in sequence with SeqL and with ER (same data, same seed).
 # 4. Reports (with 95% intervals) and the paired comparison, into benchmarks/results/quick/.
 #
@@ -21,7 +23,7 @@ results=benchmarks/results/quick
 export OMP_NUM_THREADS="${OMP_NUM_THREADS:-2}" SVT_LOG=1
 ld=.venv/bin/libero-data
 lb=.venv/bin/libero-bench
-run=(--policy resnet_t --preset quick --workers 2 --threads 2)
+run=(--policy resnet_t --preset quick --render-quality fast --workers 2 --threads 2)
 
 $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task 50 --image-size 64 --workers 2 --seed 0 \
   --out "$work/object-64"

@@ -18,6 +18,7 @@ benchmark run: weights, task, loaders  ``run_seed(seed, task position, stream)``
 a loader's epoch                       ``loader_epoch_seed(loader seed, epoch)``
 evaluation rollout ``r``, stored start ``rollout_start(r, stored init states)``
 evaluation rollout ``r``, held out     ``heldout_starts(task key, n, avoid)[r]``
+a sampler start's arm pose             ``arm_noise_rng(reset seed)``
 =====================================  ============================================================
 
 An episode's two seeds are a *reset seed* (LIBERO places fixtures, and objects where no
@@ -39,6 +40,8 @@ CANDIDATE_EXPERT = 1000
 #: The held-out evaluation stream's tag: its seeds depend on the task only (every run of every
 #: method is evaluated from the same placements), never on a dataset's or a run's seed.
 HELDOUT_TAG = 0x4E1D0
+#: The tag of the stream that draws a sampler start's arm-joint noise from its reset seed.
+ARM_NOISE_TAG = 0xA4A
 
 
 def stable_hash(text: str) -> int:
@@ -66,6 +69,11 @@ def candidate_seed(seed: int, task_name: str, i: int) -> int:
 def sampler_rng(seed: int) -> np.random.Generator:
     """The stream that draws procedural tasks (templates, scenes, objects, placements)."""
     return np.random.default_rng(np.random.SeedSequence([seed, 0x11BE70]))
+
+
+def arm_noise_rng(reset_seed: int) -> np.random.Generator:
+    """The stream of the arm's joint noise of a start placed by LIBERO's sampler from ``reset_seed``."""
+    return np.random.default_rng(np.random.SeedSequence([int(reset_seed) & 0xFFFFFFFF, ARM_NOISE_TAG]))
 
 
 def variant_rng(seed: int, task_index: int, kind_position: int) -> np.random.Generator:

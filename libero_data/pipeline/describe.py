@@ -115,7 +115,7 @@ def _task_meta(t: Any) -> dict[str, Any]:
 
 #: The card's settings row for each kind of start.
 START_WORDS = {
-    "sampler": "LIBERO's placement sampler, demonstration seeds (no stored init state)",
+    "sampler": "LIBERO's placement sampler and arm-joint noise of 0.02 rad, demonstration seeds (no stored init state)",
     "stored": "LIBERO's stored init states (the paper's evaluation starts), then the sampler",
 }
 
@@ -125,7 +125,9 @@ def start_note(starts: str, episodes_per_task: int) -> str:
     if starts == "sampler":
         return (
             "Every episode starts from a placement drawn by LIBERO's own sampler for its task, seeded from the "
-            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1). No episode "
+            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1), with "
+            "the arm's seven joints offset by Gaussian noise of 0.02 rad drawn from the same seed, as in LIBERO's "
+            "stored init states (LIBERO's environment itself starts every reset from one arm pose). No episode "
             "starts from LIBERO's 50 stored init states, which the paper's evaluation uses, and libero-bench draws "
             "its held-out evaluation placements from another seed stream: a policy trained on this dataset is "
             "evaluated on starts it never saw."

@@ -15,6 +15,7 @@ import numpy as np
 
 from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
 from libero_data.errors import BDDLError, InputError, MissingFileError, SceneError
+from libero_data.sim.arm import ARM_INIT_NOISE, jitter_arm
 from libero_data.sim.gl import select_backend
 from libero_data.sim.imports import import_libero
 from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
@@ -61,8 +62,11 @@ class EnvConfig:
     control_freq: int = 20
     render_quality: str = "full"
     mesh_cache: str | None = None
+    arm_noise: float = ARM_INIT_NOISE  # rad per joint on sampler starts, as LIBERO's stored states
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.arm_noise <= 0.5:
+            raise InputError(f"arm_noise must be in [0, 0.5] rad, got {self.arm_noise}", field="arm_noise")
         if not 16 <= self.image_size <= 2048:
             raise InputError(f"the image size must be in 16..2048, got {self.image_size}", field="image_size")
         if self.control_freq <= 0:
@@ -186,7 +190,8 @@ class LiberoEnv:
     ) -> dict[str, Any]:
         """Reset the scene; fixtures are placed from ``seed``, objects from ``init_state``.
 
-        Without ``init_state`` the objects are placed by LIBERO's own sampler from ``seed``.
+        Without ``init_state`` the objects are placed by LIBERO's own sampler from ``seed``, and
+        the arm's joints get the noise LIBERO's stored init states have (:mod:`libero_data.sim.arm`).
         ``settle`` no-op steps (gripper open) follow: stored init states hold objects a few
         centimetres above their supports, and about 20 steps let them come to rest. The
         returned state is canonical (see :meth:`set_state`), so an episode recorded from it
@@ -208,6 +213,8 @@ class LiberoEnv:
         finally:
             np.random.set_state(saved)
         self._trim_step()  # robosuite builds new controllers on every reset
+        if init_state is None:
+            jitter_arm(self._env, seed, self.config.arm_noise)
         self.set_state(self.get_state() if init_state is None else init_state)
         if self.perturbation is not None and self.perturbation.kind == "robot_init":
             from libero_data.perturb.apply import start_robot
