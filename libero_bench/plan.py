@@ -17,6 +17,7 @@ from libero_bench.presets import TrainPreset
 from libero_bench.run_files import RUN_FORMAT, RunFolder
 from libero_data.errors import FolderError, InputError, MissingFileError, UnknownNameError
 from libero_data.numerics import machine_fingerprint
+from libero_data.sim.arm import ARM_INIT_NOISE
 
 if TYPE_CHECKING:
     import torch
@@ -141,6 +142,8 @@ class RunPlan:
                 "stored_rollouts": self.preset.eval_rollouts,
                 "heldout_rollouts": self.preset.eval_heldout,
                 "heldout_seeds": "libero_data.seeding.heldout_starts(task name, n, avoid=its demonstrations' seeds)",
+                # rad per arm joint on held-out starts, as LIBERO's stored init states (libero_data.sim.arm)
+                "heldout_arm_noise": ARM_INIT_NOISE,
                 "training_starts": start_overlap(self.source, self.tasks, self.preset),
             },
             "runtime": {

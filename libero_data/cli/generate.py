@@ -121,6 +121,17 @@ Starts = Annotated[
         "'stored' (LIBERO's 50 stored init states, which the paper's evaluation starts from, then the sampler).",
     ),
 ]
+ArmNoise = Annotated[
+    float,
+    typer.Option(
+        "--arm-noise",
+        help="Gaussian noise (rad, per arm joint) on the arm's pose at a sampler start, drawn from the episode's "
+        "seed: 0.02 is what LIBERO's stored init states have; 0 starts every episode from LIBERO's one arm pose "
+        "(datasets made before this option existed did).",
+        min=0.0,
+        max=0.5,
+    ),
+]
 MaxAttempts = Annotated[
     int,
     typer.Option("--max-attempts", help="Expert attempts per episode before the episode is given up.", min=1),
@@ -172,6 +183,7 @@ def generate_cmd(
     image_size: GenImageSize = None,
     features: Features = "libero-data",
     starts: Starts = "sampler",
+    arm_noise: ArmNoise = 0.02,
     render_quality: RenderQuality = "full",
     workers: Workers = 1,
     seed: Seed = 0,
@@ -217,6 +229,7 @@ def generate_cmd(
         starts=starts,
         features=features,
         render_quality=render_quality,
+        arm_noise=arm_noise,
     )
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     say(

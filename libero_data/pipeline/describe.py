@@ -56,7 +56,7 @@ def describe_dataset(
         "episodes per task (requested)": str(request.episodes_per_task),
         "image size": f"{request.image_size}×{request.image_size}",
         "seed": str(request.seed),
-        "starts": START_WORDS[request.starts],
+        "starts": start_words(request.starts, request.arm_noise),
         "feature names": request.features,
         "render quality": provenance.render_line(render),
         "attempts per episode (at most)": str(request.max_attempts),
@@ -83,7 +83,7 @@ def describe_dataset(
         image_size=request.image_size,
         sim_state_width=width,
         settings=settings,
-        start_note=start_note(request.starts, request.episodes_per_task),
+        start_note=start_note(request.starts, request.episodes_per_task, request.arm_noise),
         camera_keys=request.layout.camera_keys,
         image_note=FAST_IMAGE_NOTE if request.render_quality == "fast" else FULL_IMAGE_NOTE,
     )
@@ -115,19 +115,36 @@ def _task_meta(t: Any) -> dict[str, Any]:
 
 #: The card's settings row for each kind of start.
 START_WORDS = {
-    "sampler": "LIBERO's placement sampler and arm-joint noise of 0.02 rad, demonstration seeds (no stored init state)",
+    "sampler": "LIBERO's placement sampler, demonstration seeds (no stored init state)",
     "stored": "LIBERO's stored init states (the paper's evaluation starts), then the sampler",
 }
 
 
-def start_note(starts: str, episodes_per_task: int) -> str:
+def start_words(starts: str, arm_noise: float) -> str:
+    """The card's settings row for the starts."""
+    arm = f"arm joints + N(0, {arm_noise:g} rad)" if arm_noise else "the arm at LIBERO's initial pose"
+    return f"{START_WORDS[starts]}; sampler starts: {arm}"
+
+
+def arm_words(arm_noise: float) -> str:
+    """How the card says a sampler start holds the arm."""
+    if arm_noise == 0:
+        return (
+            "with the arm at LIBERO's initial pose (no noise: the stored init states have 0.02 rad per joint)"
+        )
+    return (
+        f"with the arm's seven joints offset by Gaussian noise of {arm_noise:g} rad drawn from the same seed "
+        "(LIBERO's stored init states have 0.02 rad; LIBERO's environment itself starts every reset from one arm pose)"
+    )
+
+
+def start_note(starts: str, episodes_per_task: int, arm_noise: float = 0.0) -> str:
     """Where the card says the episodes started."""
     if starts == "sampler":
         return (
             "Every episode starts from a placement drawn by LIBERO's own sampler for its task, seeded from the "
-            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1), with "
-            "the arm's seven joints offset by Gaussian noise of 0.02 rad drawn from the same seed, as in LIBERO's "
-            "stored init states (LIBERO's environment itself starts every reset from one arm pose). No episode "
+            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1), "
+            f"{arm_words(arm_noise)}. No episode "
             "starts from LIBERO's 50 stored init states, which the paper's evaluation uses, and libero-bench draws "
             "its held-out evaluation placements from another seed stream: a policy trained on this dataset is "
             "evaluated on starts it never saw."
@@ -138,7 +155,7 @@ def start_note(starts: str, episodes_per_task: int) -> str:
         "state k), the states the paper's evaluation starts from: a policy evaluated on them has seen its starts "
         "in training. "
         + (
-            "Further episodes start from placements drawn by LIBERO's own sampler for that task, seeded."
+            f"Further episodes start from placements drawn by LIBERO's own sampler for that task, seeded, {arm_words(arm_noise)}."
             if episodes_per_task > STORED_INITS
             else ""
         )
@@ -223,7 +240,7 @@ def suite_card(
         "episodes per task": str(episodes_per_task),
         "image size": f"{image_size}×{image_size}",
         "seed": str(seed),
-        "starts": START_WORDS[request.starts],
+        "starts": start_words(request.starts, request.arm_noise),
         "render quality": "full: LIBERO's own renderer, pixel for pixel (`--render-quality fast` draws "
         "simplified visual meshes and states their measured difference)",
         "attempts per episode (at most)": str(request.max_attempts),
@@ -250,7 +267,7 @@ def suite_card(
         image_size=image_size,
         sim_state_width=sim_state_width(request),
         settings=settings,
-        start_note=start_note(request.starts, episodes_per_task),
+        start_note=start_note(request.starts, episodes_per_task, request.arm_noise),
         expert_note=(
             "Here: successes over the first attempts from the stored init states, as measured by the expert report"
             + (f" ({by})." if by else ".")

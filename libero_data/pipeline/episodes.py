@@ -20,6 +20,7 @@ from libero_data.record.features import CAMERAS
 from libero_data.runtime.files import load_record, save_record
 from libero_data.runtime.jobs import WorkerCache, WorkerContext
 from libero_data.seeding import demo_key, episode_seeds
+from libero_data.sim.arm import ARM_INIT_NOISE
 
 #: The fingerprint of an episode searched before fingerprints were recorded.
 UNKNOWN_MACHINE: dict[str, Any] = {"numeric_key": "unknown"}
@@ -62,6 +63,7 @@ def expert_env(
     image_size: int,
     cameras: tuple[str, ...] = CAMERAS,
     render_quality: str = "full",
+    arm_noise: float = ARM_INIT_NOISE,
 ) -> tuple[Any, Any]:
     """(env, expert) of ``task`` at ``image_size`` from the worker's cache, built when it changed.
 
@@ -74,11 +76,13 @@ def expert_env(
     from libero_data.sim import EnvConfig, LiberoEnv
 
     def build() -> tuple[Any, Any]:
-        config = EnvConfig(image_size=image_size, cameras=cameras, render_quality=render_quality)
+        config = EnvConfig(
+            image_size=image_size, cameras=cameras, render_quality=render_quality, arm_noise=arm_noise
+        )
         env = LiberoEnv(task, config)
         return env, Expert(env, ExpertConfig())
 
-    key = (str(task.suite), int(task.index), int(image_size), cameras, render_quality)
+    key = (str(task.suite), int(task.index), int(image_size), cameras, render_quality, arm_noise)
     return cache.get("env", key, build, close=lambda pair: pair[0].close())
 
 
@@ -161,8 +165,8 @@ def _final_state(env: Any, record: dict[str, Any]) -> np.ndarray:
     return np.asarray(env.get_state())
 
 
-def _render_settings(request: GenerateRequest) -> tuple[int, tuple[str, ...], str]:
-    return request.image_size, tuple(request.cameras), request.render_quality
+def _render_settings(request: GenerateRequest) -> tuple[int, tuple[str, ...], str, float]:
+    return request.image_size, tuple(request.cameras), request.render_quality, request.arm_noise
 
 
 def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:

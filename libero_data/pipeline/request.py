@@ -14,6 +14,7 @@ from typing import Any
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.record.features import CAMERAS, FeatureLayout
+from libero_data.sim.arm import ARM_INIT_NOISE
 from libero_data.sim.env import check_render_quality
 
 #: LIBERO's stored init states per task; with ``starts="stored"``, episode k < 50 of a task
@@ -30,6 +31,7 @@ LEGACY_REQUEST = {
     "cameras": list(CAMERAS),
     "source": "",
     "render_quality": "full",
+    "arm_noise": 0.0,  # sampler starts then began from LIBERO's one arm pose
 }
 
 
@@ -49,8 +51,13 @@ class GenerateRequest(Config):
     cameras: tuple[str, ...] = CAMERAS
     source: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
     render_quality: str = "full"  # libero_data.sim.env.RENDER_QUALITIES
+    arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on sampler starts (libero_data.sim.arm)
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.arm_noise <= 0.5:
+            raise InputError(
+                f"the arm noise must be in [0, 0.5] rad, got {self.arm_noise}", field="arm_noise"
+            )
         if self.episodes_per_task < 1:
             raise InputError(
                 f"episodes per task must be at least 1, got {self.episodes_per_task}",
@@ -107,6 +114,7 @@ def resolve_request(
     features: str = "libero-data",
     cameras: tuple[str, ...] = CAMERAS,
     render_quality: str = "full",
+    arm_noise: float = ARM_INIT_NOISE,
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
     from libero_data.tasks import get_suite
@@ -131,6 +139,7 @@ def resolve_request(
         features=features,
         cameras=tuple(cameras),
         render_quality=render_quality,
+        arm_noise=float(arm_noise),
     )
 
 

@@ -78,9 +78,15 @@ class WorkFolder:
         saved = {**(legacy or {}), **json.loads(path.read_text())}
         changed = changed_keys(saved, settings, ignore)
         if changed:
+            values = [
+                f"{k} {saved.get(k)!r} there, {settings.get(k)!r} asked"
+                for k in changed
+                if isinstance(saved.get(k), (int, float, str))
+                and isinstance(settings.get(k), (int, float, str))
+            ]
             raise SettingsChanged(
                 f"{owner or self.root} holds a {self.what} made with different settings "
-                f"({', '.join(changed)}); {advice}",
+                f"({', '.join(changed)}){''.join(f'; {v}' for v in values)}; {advice}",
                 changed=changed,
             )
         return dict(saved)

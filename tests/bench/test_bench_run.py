@@ -106,6 +106,7 @@ def test_run_folder_and_results(bench_run: Path) -> None:
         assert r["env_seed"] not in demo_seeds
     curve_heldout = np.array(results["curve_heldout"], dtype=float)
     assert curve_heldout.shape == (2, 2) and np.isfinite(curve_heldout).all()
+    assert config["evaluation"]["heldout_arm_noise"] == 0.02  # as LIBERO's stored init states
     starts = config["evaluation"]["training_starts"]
     assert all(s["recorded"] and s["stored_eval_starts_trained_on"] == [] for s in starts.values())
     for k in range(2):

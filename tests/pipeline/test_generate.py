@@ -66,7 +66,7 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
         "(Turnon flat_stove_1)",
         "version: mujoco",
         "| seed | 3 |",
-        "| starts | LIBERO's placement sampler and arm-joint noise of 0.02 rad, demonstration seeds (no stored init state) |",
+        "| starts | LIBERO's placement sampler, demonstration seeds (no stored init state); sampler starts: arm joints + N(0, 0.02 rad) |",
         "No episode starts from LIBERO's 50 stored init states",
     ):
         assert needle in text

@@ -42,3 +42,27 @@ def test_a_dataset_begun_before_starts_existed_continues_with_stored_starts(tmp_
         folder.claim(
             GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=LEGACY_REQUEST
         )
+
+
+def test_sampler_starts_get_the_stored_states_arm_noise_unless_asked_otherwise() -> None:
+    assert GenerateRequest("libero_goal", (0,)).arm_noise == 0.02
+    assert "Gaussian noise of 0.02 rad" in start_note("sampler", 50, 0.02)
+    assert "with the arm at LIBERO's initial pose" in start_note("sampler", 50, 0.0)
+    with pytest.raises(InputError) as bad:
+        GenerateRequest("libero_goal", (0,), arm_noise=-0.1)
+    assert bad.value.field == "arm_noise"
+
+
+def test_a_dataset_begun_before_arm_noise_existed_continues_without_it(tmp_path: Path) -> None:
+    # Its episodes began from LIBERO's one arm pose; new ones must too, or the dataset mixes two
+    # kinds of start. Continuing needs --arm-noise 0; the default is refused, naming the setting.
+    old = GenerateRequest("libero_goal", (0,)).to_dict()
+    del old["arm_noise"]
+    (tmp_path / "request.json").write_text(json.dumps(old))
+    folder = WorkFolder(tmp_path, "dataset")
+    with pytest.raises(SettingsChanged, match=r"\(arm_noise\); arm_noise 0.0 there, 0.02 asked"):
+        folder.claim(
+            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=LEGACY_REQUEST
+        )
+    fixed = GenerateRequest("libero_goal", (0,), arm_noise=0.0).to_dict()
+    assert folder.claim(fixed, name="request.json", legacy=LEGACY_REQUEST) is not None
