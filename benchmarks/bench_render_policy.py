@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
@@ -28,70 +26,9 @@ QUALITIES = ("full", "fast")
 
 def rollouts(run: Path, workers: int) -> dict[Any, Any]:
     """Outcomes per (quality, start kind): {(task, rollout): (success, init index, seed)}."""
-    from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
-    from libero_bench.compare import final_outcomes
-    from libero_bench.data import DemoDataset
-    from libero_bench.evaluate import Evaluator, make_job
-    from libero_bench.language import encode_tasks
-    from libero_bench.plan import resolve_eval_task
-    from libero_bench.run_files import HELDOUT, STORED, RunFolder
-    from libero_bench.runs import load_run
+    from benchmarks.reroll import reroll
 
-    summary = load_run(run)
-    config = summary.config
-    preset = config["preset"]
-    source = DemoDataset(config["data"])
-    languages = [t["language"] for t in config["tasks"]]
-    embs = encode_tasks(languages, preset["language_encoder"])
-    out: dict[Any, Any] = {
-        "run": str(run),
-        "recorded": {s: final_outcomes(summary, s) for s in (STORED, HELDOUT)},
-    }
-    folder = RunFolder(run)
-    seconds: dict[str, float] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for position in range(summary.tasks_done):
-            task = source.task(config["tasks"][position]["name"])
-            eval_task = resolve_eval_task(
-                source, task, position, embs[position], heldout=preset["eval_heldout"]
-            )
-            policy, _algo = policy_from_checkpoint(
-                config, kept_checkpoint(folder, config, position), position
-            )
-            for quality in QUALITIES:
-                jobs = []
-                for start, count in ((STORED, preset["eval_rollouts"]), (HELDOUT, preset["eval_heldout"])):
-                    for r in range(count):
-                        key = f"{quality}-{position}-{start}-{r:03d}"
-                        jobs.append(
-                            make_job(
-                                eval_task,
-                                r,
-                                key=key,
-                                settle=preset["eval_settle"],
-                                max_steps=preset["eval_max_steps"],
-                                image_size=preset["image_size"],
-                                sim_state_width=source.sim_state_width,
-                                shard_dir=f"shards/{key}",
-                                rrd_path=f"rrd/{key}.rrd",
-                                tags={"quality": quality},
-                                start=start,
-                                render_quality=quality,
-                            )
-                        )
-                started = time.perf_counter()
-                with Evaluator(workers, Path(tmp) / quality) as evaluator:
-                    results = evaluator.run(policy, jobs)
-                seconds[quality] = seconds.get(quality, 0.0) + time.perf_counter() - started
-                for job, result in zip(jobs, results, strict=True):
-                    tags = job.tags
-                    out.setdefault((quality, job.start), {})[(eval_task.name, int(tags["rollout"]))] = (
-                        bool(result.success),
-                        int(tags["init_index"]),
-                        int(tags["env_seed"]),
-                    )
-    out["seconds"] = seconds
-    return out
+    return reroll(run, {q: {"render_quality": q} for q in QUALITIES}, workers=workers)
 
 
 def table(found: list[dict[Any, Any]], workers: int) -> str:

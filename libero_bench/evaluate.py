@@ -34,6 +34,7 @@ import numpy as np
 from libero_bench.run_files import HELDOUT, STORED
 from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
 from libero_data.seeding import rollout_start
+from libero_data.sim.arm import ARM_INIT_NOISE
 
 if TYPE_CHECKING:
     from libero_bench.policies import Policy
@@ -91,6 +92,7 @@ class RolloutJob:
     tags: Mapping[str, Any]
     start: str = STORED
     render_quality: str = "full"
+    arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on held-out (sampler) starts
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,7 @@ def make_job(
     tags: Mapping[str, Any],
     start: str = STORED,
     render_quality: str = "full",
+    arm_noise: float = ARM_INIT_NOISE,
 ) -> RolloutJob:
     init_state, init_index, env_seed = task.start(rollout, start)
     return RolloutJob(
@@ -135,6 +138,7 @@ def make_job(
         tags={**tags, "rollout": rollout, "start": start, "init_index": init_index, "env_seed": env_seed},
         start=start,
         render_quality=render_quality,
+        arm_noise=arm_noise,
     )
 
 
@@ -189,10 +193,12 @@ def rollout_env(ctx: WorkerContext, job: RolloutJob) -> Any:
     """The job's task environment (both cameras at the job's size and quality), kept by the worker."""
     from libero_data.sim import EnvConfig, LiberoEnv
 
-    config = EnvConfig(image_size=job.image_size, cameras=CAMERAS, render_quality=job.render_quality)
+    config = EnvConfig(
+        image_size=job.image_size, cameras=CAMERAS, render_quality=job.render_quality, arm_noise=job.arm_noise
+    )
     return ctx.cache.get(
         "env",
-        (job.env_ref, job.image_size, job.render_quality),
+        (job.env_ref, job.image_size, job.render_quality, job.arm_noise),
         lambda: LiberoEnv(job.env_ref, config),
         close=lambda e: e.close(),
     )
