@@ -135,7 +135,9 @@ class RunPlan:
             "algo_config": self.algo_config,
             "policy": req.policy,
             "policy_config": self.policy_config,
-            "preset": self.preset.to_dict(),
+            # augment=None (the policy's own default, which policy_config records) is left out,
+            # so runs made before the field existed resume
+            "preset": {k: v for k, v in self.preset.to_dict().items() if not (k == "augment" and v is None)},
             "seed": self.seed,
             "init_checkpoint": str(req.init_checkpoint.resolve()) if req.init_checkpoint else None,
             "evaluation": {
@@ -181,6 +183,7 @@ def plan_run(request: RunRequest) -> RunPlan:
         image_size=preset.image_size,
         window=preset.window,
         task_emb_dim=int(embs.shape[1]),
+        **({} if preset.augment is None else {"augment": bool(preset.augment)}),
     )
     algo = _algo_for(request.algo, preset.algo_size, seed)
     return RunPlan(

@@ -45,6 +45,7 @@ class TrainPreset(Config):
     eval_render_quality: str = "full"  # "fast": rollouts drawn from simplified meshes (libero_data.sim)
     keep_best: bool = True  # keep the checkpoint with the best success while learning a task
     demos_per_task: int | None = None  # None: all demonstrations of the task
+    augment: bool | None = None  # training-time image augmentation; None: the policy size's default
     seed: int = 10000
 
     def __post_init__(self) -> None:
@@ -70,6 +71,8 @@ class TrainPreset(Config):
         self._check_choice("eval_render_quality", ("full", "fast"))
         if not isinstance(self.eval_first_epoch, bool):
             self._fail("eval_first_epoch", "must be true or false")
+        if self.augment is not None and not isinstance(self.augment, bool):
+            self._fail("augment", "must be true, false or null (the policy size's default)")
         if self.demos_per_task is not None and self.demos_per_task <= 0:
             self._fail("demos_per_task", "must be positive or None")
         if not 0 < self.lr_min <= self.lr:

@@ -55,3 +55,21 @@ def test_light_modules_do_not_import_torch() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=os.environ
     )
     assert out.stdout.strip() == "False"
+
+
+def test_augment_overrides_the_policy_default_and_is_recorded_only_when_set(tiny_dataset) -> None:
+    from libero_bench.train import RunOptions, RunRequest, plan_run
+
+    quick = get_preset("quick")
+    assert quick.augment is None and quick.with_overrides(["augment=true"]).augment is True
+    with pytest.raises(ValueError, match=r"TrainPreset\.augment"):
+        quick.with_overrides(["augment=3"])
+    default = plan_run(RunRequest(data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick))
+    assert default.policy_config["augment"] is False  # the smoke-size policy's own default
+    assert "augment" not in default.config(RunOptions())["preset"]  # runs made before the field resume
+    on = plan_run(
+        RunRequest(
+            data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick.with_overrides(["augment=true"])
+        )
+    )
+    assert on.policy_config["augment"] is True and on.config(RunOptions())["preset"]["augment"] is True
