@@ -5,7 +5,8 @@
 #   benchmarks/quick.sh [WORK_DIR]     (default: ../quick-work beside the repository)
 #
 # 1. 50 demonstrations of each of the first three libero_object tasks, 64x64, starting from
-#    LIBERO's sampler (no stored init state: the evaluation's stored starts are unseen).
+#    LIBERO's sampler with the stored states' arm noise (no stored init state: the
+#    evaluation's stored starts are unseen).
 # 2. Each task trained alone (SeqL on a one-task list), quick preset: 20 stored and 20
 #    held-out evaluation starts per task, drawn with `--render-quality fast` (simplified
 #    meshes: 4.3x cheaper rollouts on CPU, no detectable effect on this policy's success;
