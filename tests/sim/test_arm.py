@@ -46,3 +46,19 @@ def test_arm_noise_follows_the_seed_and_leaves_stored_starts_alone() -> None:
         from_stored = env.reset(state, seed=11, render=False)["sim_state"]
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(from_stored[ARM], state[ARM])
+
+
+def test_generate_builds_its_environments_with_the_requested_arm_noise() -> None:
+    from libero_data.pipeline.episodes import expert_env
+    from libero_data.pipeline.request import GenerateRequest
+    from libero_data.runtime.jobs import WorkerCache
+
+    task = get_task(TASK)
+    cache = WorkerCache()
+    for noise in (0.0, 0.02):
+        request = GenerateRequest("libero_object", (1,), image_size=64, arm_noise=noise)
+        env, _expert = expert_env(
+            cache, task, request.image_size, (), request.render_quality, request.arm_noise
+        )
+        assert env.config.arm_noise == noise
+    env.close()
