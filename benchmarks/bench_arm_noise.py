@@ -19,9 +19,11 @@ from typing import Any
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("SVT_LOG", "1")
 
+from libero_data.sim.arm import ARM_INIT_NOISE
+
 CONDITIONS = {
     "one arm pose": {"render_quality": "fast", "arm_noise": 0.0},
-    "arm noise 0.02 rad": {"render_quality": "fast", "arm_noise": 0.02},
+    f"arm noise {ARM_INIT_NOISE:g} rad": {"render_quality": "fast", "arm_noise": ARM_INIT_NOISE},
 }
 
 

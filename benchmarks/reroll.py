@@ -55,11 +55,11 @@ def reroll(
             policy, _algo = policy_from_checkpoint(
                 config, kept_checkpoint(folder, config, position), position
             )
-            for name, settings in conditions.items():
+            for i, (name, settings) in enumerate(conditions.items()):
                 jobs = []
                 for start in starts:
                     for r in range(counts[start]):
-                        key = f"{len(seconds)}-{position}-{start}-{r:03d}"
+                        key = f"{i}-{position}-{start}-{r:03d}"
                         jobs.append(
                             make_job(
                                 eval_task,
@@ -77,7 +77,7 @@ def reroll(
                             )
                         )
                 started = time.perf_counter()
-                with Evaluator(workers, Path(tmp) / f"{name}-{position}".replace(" ", "_")) as evaluator:
+                with Evaluator(workers, Path(tmp) / f"{i}-{position}") as evaluator:
                     results = evaluator.run(policy, jobs)
                 seconds[name] = seconds.get(name, 0.0) + time.perf_counter() - started
                 for job, result in zip(jobs, results, strict=True):

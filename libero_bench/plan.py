@@ -135,9 +135,7 @@ class RunPlan:
             "algo_config": self.algo_config,
             "policy": req.policy,
             "policy_config": self.policy_config,
-            # augment=None (the policy's own default, which policy_config records) is left out,
-            # so runs made before the field existed resume
-            "preset": {k: v for k, v in self.preset.to_dict().items() if not (k == "augment" and v is None)},
+            "preset": self.preset.to_dict(),
             "seed": self.seed,
             "init_checkpoint": str(req.init_checkpoint.resolve()) if req.init_checkpoint else None,
             "evaluation": {

@@ -75,6 +75,9 @@ __all__ = ["RunObserver", "RunOptions", "RunRequest", "Trainer", "plan_run", "ru
 
 logger = logging.getLogger(__name__)
 
+#: What a run's preset meant by fields added after it was made (its config.json lacks them).
+LEGACY_PRESET: dict[str, Any] = {"augment": None}
+
 
 class Trainer:
     """Runs (or resumes) one lifelong run in ``out``; see the module docstring."""
@@ -116,7 +119,8 @@ class Trainer:
         root = self.folder.root
         if self.folder.config.is_file():
             saved = self.folder.read_config()
-            changed = changed_keys(saved, config, ignore=RUNTIME_KEYS)
+            preset = {**LEGACY_PRESET, **saved.get("preset", {})}
+            changed = changed_keys({**saved, "preset": preset}, config, ignore=RUNTIME_KEYS)
             if changed:
                 raise SettingsChanged(
                     f"{root} holds a run with a different {changed[0]!r}; resume it with the same settings "

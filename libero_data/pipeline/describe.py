@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from libero_data.pipeline.request import STORED_INITS, GenerateRequest, Slot
+from libero_data.sim.arm import ARM_INIT_NOISE
 
 
 def describe_dataset(
@@ -130,15 +131,17 @@ def arm_words(arm_noise: float) -> str:
     """How the card says a sampler start holds the arm."""
     if arm_noise == 0:
         return (
-            "with the arm at LIBERO's initial pose (no noise: the stored init states have 0.02 rad per joint)"
+            "with the arm at LIBERO's initial pose (no noise: the stored init states have "
+            f"{ARM_INIT_NOISE:g} rad per joint)"
         )
     return (
         f"with the arm's seven joints offset by Gaussian noise of {arm_noise:g} rad drawn from the same seed "
-        "(LIBERO's stored init states have 0.02 rad; LIBERO's environment itself starts every reset from one arm pose)"
+        f"(LIBERO's stored init states have {ARM_INIT_NOISE:g} rad; LIBERO's environment itself starts every reset "
+        "from one arm pose)"
     )
 
 
-def start_note(starts: str, episodes_per_task: int, arm_noise: float = 0.0) -> str:
+def start_note(starts: str, episodes_per_task: int, arm_noise: float) -> str:
     """Where the card says the episodes started."""
     if starts == "sampler":
         return (

@@ -165,7 +165,7 @@ def _final_state(env: Any, record: dict[str, Any]) -> np.ndarray:
     return np.asarray(env.get_state())
 
 
-def _render_settings(request: GenerateRequest) -> tuple[int, tuple[str, ...], str, float]:
+def _env_settings(request: GenerateRequest) -> tuple[int, tuple[str, ...], str, float]:
     return request.image_size, tuple(request.cameras), request.render_quality, request.arm_noise
 
 
@@ -209,12 +209,12 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             if search.is_file():
                 record = load_record(search)
             else:
-                env, expert = expert_env(ctx.cache, task, *_render_settings(request))
+                env, expert = expert_env(ctx.cache, task, *_env_settings(request))
                 record = search_slot(env, expert, task, request, slot)
                 save_record(search, record)
             finishing = None
             if record["success"] and not shard.is_dir():
-                env, _expert = expert_env(ctx.cache, task, *_render_settings(request))
+                env, _expert = expert_env(ctx.cache, task, *_env_settings(request))
                 env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
                 finish = render_shard(
                     shard,

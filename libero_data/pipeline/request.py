@@ -14,7 +14,7 @@ from typing import Any
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.record.features import CAMERAS, FeatureLayout
-from libero_data.sim.arm import ARM_INIT_NOISE
+from libero_data.sim.arm import ARM_INIT_NOISE, check_arm_noise
 from libero_data.sim.env import check_render_quality
 
 #: LIBERO's stored init states per task; with ``starts="stored"``, episode k < 50 of a task
@@ -54,10 +54,7 @@ class GenerateRequest(Config):
     arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on sampler starts (libero_data.sim.arm)
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.arm_noise <= 0.5:
-            raise InputError(
-                f"the arm noise must be in [0, 0.5] rad, got {self.arm_noise}", field="arm_noise"
-            )
+        check_arm_noise(self.arm_noise)
         if self.episodes_per_task < 1:
             raise InputError(
                 f"episodes per task must be at least 1, got {self.episodes_per_task}",

@@ -15,10 +15,19 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.errors import InputError
 from libero_data.seeding import arm_noise_rng
 
 #: Standard deviation (rad) of the noise on each arm joint, as in LIBERO's stored init states.
 ARM_INIT_NOISE = 0.02
+#: The largest noise accepted (rad per joint).
+MAX_ARM_NOISE = 0.5
+
+
+def check_arm_noise(value: float) -> None:
+    """Raise :class:`InputError` unless ``value`` is a noise in [0, :data:`MAX_ARM_NOISE`] rad."""
+    if not 0.0 <= value <= MAX_ARM_NOISE:
+        raise InputError(f"the arm noise must be in [0, {MAX_ARM_NOISE}] rad, got {value}", field="arm_noise")
 
 
 def jitter_arm(raw: Any, reset_seed: int, sd: float = ARM_INIT_NOISE) -> np.ndarray:
@@ -26,7 +35,9 @@ def jitter_arm(raw: Any, reset_seed: int, sd: float = ARM_INIT_NOISE) -> np.ndar
     robosuite environment ``raw``, at rest; returns the noise applied."""
     robot = raw.robots[0]
     joints = np.asarray(robot._ref_joint_pos_indexes)
-    noise = arm_noise_rng(reset_seed).normal(0.0, sd, len(joints)) if sd > 0 else np.zeros(len(joints))
+    if sd == 0:
+        return np.zeros(len(joints))  # LIBERO's own reset, untouched
+    noise = arm_noise_rng(reset_seed).normal(0.0, sd, len(joints))
     sim = raw.sim
     sim.data.qpos[joints] = sim.data.qpos[joints] + noise
     sim.data.qvel[robot._ref_joint_vel_indexes] = 0.0

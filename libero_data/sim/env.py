@@ -15,7 +15,7 @@ import numpy as np
 
 from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
 from libero_data.errors import BDDLError, InputError, MissingFileError, SceneError
-from libero_data.sim.arm import ARM_INIT_NOISE, jitter_arm
+from libero_data.sim.arm import ARM_INIT_NOISE, check_arm_noise, jitter_arm
 from libero_data.sim.gl import select_backend
 from libero_data.sim.imports import import_libero
 from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
@@ -65,8 +65,7 @@ class EnvConfig:
     arm_noise: float = ARM_INIT_NOISE  # rad per joint on sampler starts, as LIBERO's stored states
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.arm_noise <= 0.5:
-            raise InputError(f"arm_noise must be in [0, 0.5] rad, got {self.arm_noise}", field="arm_noise")
+        check_arm_noise(self.arm_noise)
         if not 16 <= self.image_size <= 2048:
             raise InputError(f"the image size must be in 16..2048, got {self.image_size}", field="image_size")
         if self.control_freq <= 0:

@@ -57,8 +57,9 @@ def test_light_modules_do_not_import_torch() -> None:
     assert out.stdout.strip() == "False"
 
 
-def test_augment_overrides_the_policy_default_and_is_recorded_only_when_set(tiny_dataset) -> None:
-    from libero_bench.train import RunOptions, RunRequest, plan_run
+def test_augment_overrides_the_policy_default_and_runs_made_before_it_resume(tiny_dataset, tmp_path) -> None:
+    from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
+    from libero_data.errors import SettingsChanged
 
     quick = get_preset("quick")
     assert quick.augment is None and quick.with_overrides(["augment=true"]).augment is True
@@ -66,10 +67,19 @@ def test_augment_overrides_the_policy_default_and_is_recorded_only_when_set(tiny
         quick.with_overrides(["augment=3"])
     default = plan_run(RunRequest(data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick))
     assert default.policy_config["augment"] is False  # the smoke-size policy's own default
-    assert "augment" not in default.config(RunOptions())["preset"]  # runs made before the field resume
+    assert default.config(RunOptions())["preset"]["augment"] is None
+    # A run made before the field existed: its config.json has no augment; it resumes as None.
+    Trainer(default, tmp_path / "run").prepare()
+    config_path = tmp_path / "run" / "config.json"
+    old = json.loads(config_path.read_text())
+    del old["preset"]["augment"]
+    config_path.write_text(json.dumps(old))
+    Trainer(default, tmp_path / "run").prepare()
     on = plan_run(
         RunRequest(
             data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick.with_overrides(["augment=true"])
         )
     )
     assert on.policy_config["augment"] is True and on.config(RunOptions())["preset"]["augment"] is True
+    with pytest.raises(SettingsChanged):  # but not as augmented
+        Trainer(on, tmp_path / "run").prepare()

@@ -11,6 +11,7 @@ from libero_data.errors import InputError, SettingsChanged
 from libero_data.pipeline.describe import start_note
 from libero_data.pipeline.request import LEGACY_REQUEST, GenerateRequest
 from libero_data.runtime.folder import WorkFolder
+from libero_data.sim.arm import ARM_INIT_NOISE
 
 
 def test_demonstrations_start_from_the_sampler_unless_stored_starts_are_asked_for() -> None:
@@ -26,9 +27,11 @@ def test_demonstrations_start_from_the_sampler_unless_stored_starts_are_asked_fo
 
 
 def test_the_card_says_where_episodes_started() -> None:
-    assert "No episode starts from LIBERO's 50 stored init states" in start_note("sampler", 50)
-    assert "has seen its starts in training" in start_note("stored", 50)
-    assert "Further episodes start from placements drawn" in start_note("stored", 60)
+    assert "No episode starts from LIBERO's 50 stored init states" in start_note(
+        "sampler", 50, ARM_INIT_NOISE
+    )
+    assert "has seen its starts in training" in start_note("stored", 50, ARM_INIT_NOISE)
+    assert "Further episodes start from placements drawn" in start_note("stored", 60, ARM_INIT_NOISE)
 
 
 def test_a_dataset_begun_before_starts_existed_continues_with_stored_starts(tmp_path: Path) -> None:
@@ -66,3 +69,12 @@ def test_a_dataset_begun_before_arm_noise_existed_continues_without_it(tmp_path:
         )
     fixed = GenerateRequest("libero_goal", (0,), arm_noise=0.0).to_dict()
     assert folder.claim(fixed, name="request.json", legacy=LEGACY_REQUEST) is not None
+
+
+def test_the_cli_default_arm_noise_is_the_stored_states() -> None:
+    import inspect
+
+    from libero_data.cli.generate import generate_cmd
+
+    default = inspect.signature(generate_cmd).parameters["arm_noise"].default
+    assert default == ARM_INIT_NOISE == GenerateRequest("libero_goal", (0,)).arm_noise
