@@ -22,34 +22,27 @@ def _gray(x: Tensor) -> Tensor:
 
 
 def _shift_hue(x: Tensor, shift: Tensor) -> Tensor:
-    """Rotate hue by ``shift`` (fraction of a turn), per sample: x (B, ..., 3, H, W)."""
+    """Rotate hue by ``shift`` (fraction of a turn), per sample: x (B, ..., 3, H, W).
+
+    RGB to HSV, then the closed form of HSV to RGB (channel n = V - V S clamp(min(k, 4 - k), 0, 1)
+    with k = (n + 6 H) mod 6 for n = 5, 3, 1): the same result as the six-sector form
+    (torchvision's adjust_hue) at a third of its cost, which matters on CPU where the hue is most
+    of an augmented batch.
+    """
     r, g, b = x.unbind(dim=-3)
-    maxc, _ = x.max(dim=-3)
-    minc, _ = x.min(dim=-3)
-    delta = maxc - minc
+    maxc, argmax = x.max(dim=-3)
+    delta = maxc - x.amin(dim=-3)
     safe = torch.where(delta > 0, delta, torch.ones_like(delta))
-    hue = torch.where(
-        maxc == r, ((g - b) / safe) % 6, torch.where(maxc == g, (b - r) / safe + 2, (r - g) / safe + 4)
+    hue6 = torch.where(
+        argmax == 0, ((g - b) / safe) % 6, torch.where(argmax == 1, (b - r) / safe + 2, (r - g) / safe + 4)
     )
-    hue = torch.where(delta > 0, hue / 6.0, torch.zeros_like(hue))
-    sat = torch.where(
-        maxc > 0, delta / torch.where(maxc > 0, maxc, torch.ones_like(maxc)), torch.zeros_like(maxc)
-    )
-    hue = (hue + shift.view(-1, *([1] * (hue.dim() - 1)))) % 1.0
-    h6 = hue * 6.0
-    sector = torch.floor(h6)
-    frac = h6 - sector
-    v = maxc
-    p = v * (1 - sat)
-    q = v * (1 - sat * frac)
-    t = v * (1 - sat * (1 - frac))
-    sector = sector.long() % 6
-    choices = [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)]
-    out = torch.zeros_like(x)
-    for i, (cr, cg, cb) in enumerate(choices):
-        sel = (sector == i).unsqueeze(-3)
-        out = torch.where(sel, torch.stack([cr, cg, cb], dim=-3), out)
-    return out
+    hue6 = torch.where(delta > 0, hue6, torch.zeros_like(hue6))
+    hue6 = (hue6 + 6.0 * shift.view(-1, *([1] * (hue6.dim() - 1)))) % 6.0
+    channels = []
+    for n in (5.0, 3.0, 1.0):
+        k = (hue6 + n) % 6.0
+        channels.append(maxc - delta * torch.clamp(torch.minimum(k, 4.0 - k), 0.0, 1.0))
+    return torch.stack(channels, dim=-3)
 
 
 def _color_jitter(x: Tensor, strength: float, generator: torch.Generator | None, skip_prob: float) -> Tensor:

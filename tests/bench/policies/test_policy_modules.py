@@ -113,3 +113,19 @@ def test_hue_shift_of_zero_is_identity() -> None:
     torch.testing.assert_close(full_turn, x, atol=1e-5, rtol=0)
     gray = torch.full((1, 3, 4, 4), 0.5)
     torch.testing.assert_close(_shift_hue(gray, torch.tensor([0.3])), gray)
+
+
+def test_hue_shift_matches_torchvision() -> None:
+    import torchvision.transforms.functional as tvf
+
+    from libero_bench.policies.modules.augment import _shift_hue
+
+    g = torch.Generator().manual_seed(3)
+    x = torch.rand(4, 2, 3, 16, 16, generator=g)
+    x[0, 0, :, :4, :4] = 0.5  # gray pixels: no hue to rotate
+    x[1, 0, 1, :4, :4] = x[1, 0, 0, :4, :4]  # red and green tie for the maximum
+    shift = torch.tensor([0.3, -0.25, 0.1, -0.5])
+    expected = torch.stack(
+        [torch.stack([tvf.adjust_hue(x[i, t], float(shift[i])) for t in range(2)]) for i in range(4)]
+    )
+    torch.testing.assert_close(_shift_hue(x, shift), expected, atol=1e-5, rtol=0)
