@@ -12,6 +12,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+from libero_bench.policies.config_base import POLICY_SIZES
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.registry import Registry
@@ -87,8 +88,8 @@ class TrainPreset(Config):
             self._fail("optimizer", "must be 'adamw'")
         if self.scheduler not in ("cosine", "none"):
             self._fail("scheduler", "must be 'cosine' or 'none'")
-        if self.policy_size not in ("paper", "smoke"):
-            self._fail("policy_size", "must be 'paper' or 'smoke'")
+        if self.policy_size not in POLICY_SIZES:
+            self._fail("policy_size", f"must be one of {', '.join(POLICY_SIZES)}")
         if self.algo_size not in ("paper", "smoke"):
             self._fail("algo_size", "must be 'paper' or 'smoke'")
 

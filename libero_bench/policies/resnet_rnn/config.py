@@ -25,6 +25,16 @@ class ResNetRNNConfig(PolicyConfig):
         "head_num_layers": 1,
         "augment": False,
     }
+    quick_overrides: ClassVar[dict[str, Any]] = {
+        "image_embed_dim": 64,
+        "text_embed_dim": 32,
+        "resnet_channels": (16, 32),
+        "rnn_hidden_dim": 128,
+        "rnn_num_layers": 2,
+        "head_hidden_dim": 256,
+        "head_num_layers": 2,
+        "augment": False,
+    }
 
     image_embed_dim: int = 64
     text_embed_dim: int = 32

@@ -26,6 +26,17 @@ class ResNetTConfig(PolicyConfig):
         "head_num_layers": 1,
         "augment": False,
     }
+    quick_overrides: ClassVar[dict[str, Any]] = {
+        "embed_dim": 64,
+        "resnet_channels": (16, 32),
+        "num_layers": 2,
+        "num_heads": 4,
+        "head_dim": 16,
+        "mlp_dim": 128,
+        "head_hidden_dim": 256,
+        "head_num_layers": 2,
+        "augment": False,
+    }
 
     embed_dim: int = 64
     resnet_channels: tuple[int, int] = (64, 128)

@@ -33,6 +33,22 @@ class ViTTConfig(PolicyConfig):
         "head_num_layers": 1,
         "augment": False,
     }
+    quick_overrides: ClassVar[dict[str, Any]] = {
+        "patch_stem_channels": 16,
+        "embed_dim": 32,
+        "spatial_num_layers": 2,
+        "spatial_num_heads": 4,
+        "spatial_head_dim": 8,
+        "spatial_mlp_dim": 64,
+        "temporal_dim": 64,
+        "num_layers": 2,
+        "num_heads": 4,
+        "head_dim": 16,
+        "mlp_dim": 128,
+        "head_hidden_dim": 256,
+        "head_num_layers": 2,
+        "augment": False,
+    }
 
     patch_size: int = 8
     patch_stem_channels: int = 64
