@@ -12,10 +12,13 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from libero_bench.policies.config_base import POLICY_SIZES
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.registry import Registry
+
+#: Model sizes every policy has (libero_bench.policies.config_base); kept here so that
+#: presets load without torch.
+POLICY_SIZES = ("paper", "quick", "smoke")
 
 
 @dataclass(frozen=True)

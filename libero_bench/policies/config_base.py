@@ -8,11 +8,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
+from libero_bench.presets import POLICY_SIZES
 from libero_data.config import Config
 from libero_data.errors import InputError
-
-#: Model sizes every policy config has.
-POLICY_SIZES = ("paper", "quick", "smoke")
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from libero_bench.policies import POLICIES, Policy, config_from_dict, make_polic
 from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
 from libero_bench.policies.resnet_t.config import ResNetTConfig
 from libero_bench.policies.vit_t.config import ViTTConfig
+from libero_bench.presets import POLICY_SIZES
 
 
 def small(name: str, image_size: int = 32, **overrides: object) -> Policy:
@@ -137,7 +138,7 @@ def test_bad_batches_are_named(name: str, make_batch: BatchFactory) -> None:
 @pytest.mark.parametrize("name", POLICIES.names())
 def test_configs_round_trip_and_validate(name: str) -> None:
     cls = POLICIES.get(name)
-    for size in ("paper", "smoke"):
+    for size in POLICY_SIZES:
         config = policy_config(name, size)
         data = json.loads(json.dumps(config.to_dict()))
         assert data["type"] == name
@@ -153,6 +154,20 @@ def test_configs_round_trip_and_validate(name: str) -> None:
         cls.config_class(num_modes=-1)
     with pytest.raises(ValueError, match="unknown policy size"):
         policy_config(name, "large")
+
+
+@pytest.mark.parametrize("name", POLICIES.names())
+def test_quick_size_lies_between_smoke_and_paper(name: str, make_batch: BatchFactory) -> None:
+    counts = {}
+    for size in POLICY_SIZES:
+        policy = make_policy(name, size, image_size=64)
+        counts[size] = sum(p.numel() for p in policy.parameters())
+    assert counts["smoke"] < counts["quick"] < counts["paper"]
+    quick = make_policy(name, "quick", image_size=32)
+    loss = quick.loss(make_batch(batch_size=2, window=3))
+    loss.backward()
+    assert torch.isfinite(loss)
+    assert not quick.config.augment  # the quick preset turns augmentation on with augment=true
 
 
 def test_paper_sizes_follow_the_libero_configs() -> None:
