@@ -50,6 +50,7 @@ class RunOptions:
     device: str = "cpu"
     workers: int = 1  # rollout worker processes; 0 = in this process
     loader_workers: int = 0  # DataLoader worker processes
+    threads: int = 1  # torch threads of the training process (last-bit differences follow it)
     executor: str = "local"  # rollouts in local processes or on Ray ("ray")
     ray_address: str | None = None  # a Ray cluster to join; None: start Ray here
 
@@ -149,6 +150,7 @@ class RunPlan:
             "runtime": {
                 "device": options.device,
                 "workers": options.workers,
+                "threads": options.threads,
                 "executor": options.executor,
                 "versions": versions(python=True),
                 # The numeric path of the machines that worked on the run (a resumed run adds its

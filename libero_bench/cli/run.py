@@ -117,6 +117,7 @@ def run_cmd(
         device=device,
         workers=workers,
         loader_workers=loader_workers,
+        threads=threads,
         executor=executor,
         ray_address=ray_address,
     )

@@ -66,7 +66,7 @@ def test_augment_overrides_the_policy_default_and_runs_made_before_it_resume(tin
     with pytest.raises(ValueError, match=r"TrainPreset\.augment"):
         quick.with_overrides(["augment=3"])
     default = plan_run(RunRequest(data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick))
-    assert default.policy_config["augment"] is False  # the smoke-size policy's own default
+    assert default.policy_config["augment"] is False  # the policy size's own default
     assert default.config(RunOptions())["preset"]["augment"] is None
     # A run made before the field existed: its config.json has no augment; it resumes as None.
     Trainer(default, tmp_path / "run").prepare()
