@@ -14,7 +14,7 @@
 # 3. The three tasks in sequence with SeqL and with ER (same data, same seed).
 # 4. Reports (with 95% intervals) and the paired comparison, into benchmarks/results/quick/.
 #
-# The five runs go two at a time, one torch thread each: on two cores that trains 1.4x more
+# The five runs go two at a time, one torch thread each: on two cores that trains 1.16x more
 # samples per second than one run on two threads (RESULTS.md "Learning on CPU"). Each run's
 # output is in WORK_DIR/logs/. Every step resumes where it stopped when run again. Datasets,
 # checkpoints and rollouts stay in WORK_DIR; the reports and each run's config.json,

@@ -78,6 +78,7 @@ def test_run_folder_and_results(bench_run: Path) -> None:
     assert config["preset"]["epochs"] == 1 and config["preset"]["eval_max_steps"] == 6
     # The run names the numeric path it ran on (pinned, as this test process is).
     machines = config["runtime"]["machines"]
+    assert config["runtime"]["threads"] == 1  # torch threads: last-bit differences follow them
     assert [m["numeric_key"] for m in machines] == [machine_fingerprint()["numeric_key"]]
     assert {b["kernel"] for b in machines[0]["blas"]} and machines[0]["libm"]
     assert [t["name"] for t in config["tasks"]] == [
