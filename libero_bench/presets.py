@@ -1,6 +1,6 @@
-"""Training presets as data: ``paper`` (LIBERO's protocol), ``quick`` (learning shown on two
-CPU cores in under an hour per task) and ``smoke`` (a 2-task run in a few minutes that
-exercises everything and learns nothing). Saved as JSON beside every run via ``to_dict``.
+"""Training presets as data: ``paper`` (LIBERO's protocol), ``quick`` (meant to show learning
+on two CPU cores in about an hour per task; where it stands: benchmarks/RESULTS.md) and
+``smoke`` (a 2-task run in a few minutes that exercises everything and learns nothing). Saved as JSON beside every run via ``to_dict``.
 
 Values of ``paper`` come from the paper and the upstream ``libero/configs`` (train/default,
 optimizer/adam_w, scheduler/cosine_annealing, eval/default, data/default).
@@ -141,13 +141,13 @@ SMOKE = TrainPreset(
     seed=0,
 )
 
-#: Learning shown on two CPU cores in under an hour per task (generation included): 100
+#: Meant to show learning on two CPU cores in about an hour per task (generation included): 100
 #: demonstrations per task at 64x64, ResNet-T at the ``quick`` size (0.44 M parameters), batch
 #: 32, 8 epochs; one evaluation at the end (20 stored and 20 held-out starts per task, at most
 #: 300 steps: libero_object's expert needs 130-300, LeRobot's LIBERO env gives the suite 280)
 #: with ``fast`` images (simplified meshes, 4.3x cheaper rollouts on CPU). At equal training
 #: time the smoke-size model reached 12/20 and 9/20 on libero_object/0, this one 20/20 and
-#: 20/20. Measured: benchmarks/RESULTS.md, "Learning on CPU".
+#: 20/20; libero_object/1 falls short (15/20, 9/20). Measured: benchmarks/RESULTS.md, "Learning on CPU".
 QUICK = TrainPreset(
     name="quick",
     epochs=8,

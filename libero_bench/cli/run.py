@@ -44,7 +44,7 @@ def run_cmd(
         str,
         typer.Option(
             "--preset",
-            help="paper (LIBERO's protocol), quick (learning on CPU, under an hour per task) or smoke (a quick check).",
+            help="paper (LIBERO's protocol), quick (learning on CPU, ~1 h per task) or smoke (a quick check).",
         ),
     ] = "smoke",
     tasks: Annotated[
