@@ -142,20 +142,22 @@ SMOKE = TrainPreset(
 )
 
 #: Meant to show learning on two CPU cores in about an hour per task (generation included): 100
-#: demonstrations per task at 64x64, ResNet-T at the ``quick`` size (0.44 M parameters), batch
-#: 32, 8 epochs; one evaluation at the end (20 stored and 20 held-out starts per task, at most
-#: 300 steps: libero_object's expert needs 130-300, LeRobot's LIBERO env gives the suite 280)
-#: with ``fast`` images (simplified meshes, 4.3x cheaper rollouts on CPU). At equal training
-#: time the smoke-size model reached 12/20 and 9/20 on libero_object/0, this one 20/20 and
-#: 20/20; libero_object/1 falls short (15/20, 9/20). Measured: benchmarks/RESULTS.md, "Learning on CPU".
+#: demonstrations per task at 64x64, ResNet-T at the ``quick`` size (0.44 M parameters) on
+#: 5-frame windows, batch 32, 16 epochs; one evaluation at the end (20 stored and 20 held-out
+#: starts per task, at most 300 steps: libero_object's expert needs 130-300, LeRobot's LIBERO env
+#: gives the suite 280) with ``fast`` images (simplified meshes, 4.3x cheaper rollouts on CPU).
+#: A 5-frame window halves the cost of a sample, so 16 epochs cost what 8 epochs of 10-frame
+#: windows did; on libero_object/1 those 8 epochs reached 15/20 and 9/20, these 16 20/20 and
+#: 19/20. Measured: benchmarks/RESULTS.md, "Learning on CPU".
 QUICK = TrainPreset(
     name="quick",
-    epochs=8,
+    epochs=16,
     batch_size=32,
+    window=5,
     lr=5e-4,
     image_size=64,
     policy_size="quick",
-    eval_every=8,
+    eval_every=16,
     eval_first_epoch=False,
     eval_rollouts=20,
     eval_heldout=20,
