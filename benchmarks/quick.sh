@@ -8,9 +8,9 @@
 #    (simplified meshes; 2.2x the episodes per minute), starting from LIBERO's sampler with the
 #    stored states' arm noise (no stored init state: the evaluation's stored starts are unseen).
 # 2. Each task trained alone (SeqL on a one-task list), quick preset: ResNet-T at the quick
-#    size on 5-frame windows, 16 epochs, batch 32; 20 stored and 20 held-out evaluation starts per task, `fast`
-#    images (4.3x cheaper rollouts on CPU, no detectable effect on success; RESULTS.md
-#    "Fast rendering: policy check").
+#    size on 5-frame windows, 16 epochs, batch 32; 20 stored and 20 held-out evaluation starts
+#    per task, `fast` images (4.3x cheaper rollouts on CPU, no detectable effect on success;
+#    RESULTS.md "Fast rendering: policy check").
 # 3. The three tasks in sequence with SeqL and with ER (same data, same seed).
 # 4. Reports (with 95% intervals) and the paired comparison, into benchmarks/results/quick/.
 #
