@@ -1,6 +1,7 @@
-"""Training presets as data: ``paper`` (LIBERO's protocol), ``quick`` (meant to show learning
-on two CPU cores in about an hour per task; where it stands: benchmarks/RESULTS.md) and
-``smoke`` (a 2-task run in a few minutes that exercises everything and learns nothing). Saved as JSON beside every run via ``to_dict``.
+"""Training presets as data: ``paper`` (LIBERO's protocol), ``quick`` (learning shown on two CPU
+cores in about an hour per task; measured in benchmarks/RESULTS.md) and ``smoke`` (a 2-task run
+in a few minutes that exercises everything and learns nothing). Saved as JSON beside every run
+via ``to_dict``.
 
 Values of ``paper`` come from the paper and the upstream ``libero/configs`` (train/default,
 optimizer/adam_w, scheduler/cosine_annealing, eval/default, data/default).
@@ -141,7 +142,7 @@ SMOKE = TrainPreset(
     seed=0,
 )
 
-#: Meant to show learning on two CPU cores in about an hour per task (generation included): 100
+#: Learning shown on two CPU cores in about an hour per task (generation included): 100
 #: demonstrations per task at 64x64, ResNet-T at the ``quick`` size (0.44 M parameters) on
 #: 5-frame windows, batch 32, 16 epochs; one evaluation at the end (20 stored and 20 held-out
 #: starts per task, at most 300 steps: libero_object's expert needs 130-300, LeRobot's LIBERO env

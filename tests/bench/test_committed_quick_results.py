@@ -14,48 +14,35 @@ from typing import Any
 
 import pytest
 
+from libero_bench.intervals import final_rates
 from libero_bench.presets import get_preset
+from libero_bench.run_files import STARTS, RunResults
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "quick"
 SINGLE = ("single-0", "single-1", "single-2")
 TARGET = 0.8
-STARTS = ("stored", "heldout")
 
 
-def _run(name: str) -> tuple[dict[str, Any], dict[str, Any]]:
+def _run(name: str) -> tuple[dict[str, Any], RunResults]:
     folder = RESULTS / "runs" / name
     return (
         json.loads((folder / "config.json").read_text()),
-        json.loads((folder / "results.json").read_text()),
+        RunResults.from_dict(json.loads((folder / "results.json").read_text())),
     )
-
-
-def _final(config: dict[str, Any], results: dict[str, Any], start: str, position: int) -> list[bool]:
-    """Success of each rollout of task ``position`` from ``start`` once the last task was learned:
-    the last epoch's evaluation of the last task, the evaluation after it of every earlier one."""
-    last = len(config["tasks"]) - 1
-    return [
-        r["success"]
-        for r in results["rollouts"]
-        if r["start"] == start
-        and r["task_position"] == position
-        and r["learned_after"] == last
-        and (r["phase"] == "after" if position < last else r["epoch"] == config["preset"]["epochs"])
-    ]
 
 
 @pytest.mark.parametrize("name", SINGLE)
 def test_each_committed_run_was_made_with_todays_quick_preset_and_policy(name: str) -> None:
-    from libero_bench.policies import POLICIES
+    from libero_bench.policies import policy_config
 
     preset = get_preset("quick")
     config, results = _run(name)
-    assert results["complete"], f"{name} did not finish"
+    assert results.complete, f"{name} did not finish"
     assert config["preset"] == preset.to_dict(), (
         f"{name} was made with another quick preset: run benchmarks/quick.sh again"
     )
-    policy = POLICIES.get(config["policy"]).config_class.size(
-        preset.policy_size, image_size=preset.image_size, window=preset.window
+    policy = policy_config(
+        config["policy"], preset.policy_size, image_size=preset.image_size, window=preset.window
     )
     assert config["policy_config"] == policy.to_dict(), f"{name} was made with another quick policy size"
     # demonstrations from the sampler only: the stored evaluation starts are unseen
@@ -63,7 +50,8 @@ def test_each_committed_run_was_made_with_todays_quick_preset_and_policy(name: s
         assert task["demos_from_stored_inits"] == 0 and task["stored_eval_starts_trained_on"] == []
         assert task["demos_from_sampler"] == 100
     for start in STARTS:  # every task evaluated from 20 starts of each kind after the last
-        assert all(len(_final(config, results, start, k)) == 20 for k in range(len(config["tasks"])))
+        final = final_rates(results, len(config["tasks"]), start)  # as `libero-bench report` gives it
+        assert [rate.n for rate in final] == [20] * len(config["tasks"])
 
 
 @pytest.mark.parametrize("position", [0, 1, 2])
@@ -72,8 +60,7 @@ def test_each_libero_object_task_trained_alone_reaches_the_target_from_both_kind
 ) -> None:
     config, results = _run(f"single-{position}")
     assert [t["suite_index"] for t in config["tasks"]] == [position]
-    assert config["preset"]["name"] == "quick"
     for start in STARTS:
-        final = _final(config, results, start, 0)
-        assert len(final) == 20
-        assert sum(final) / len(final) >= TARGET, f"single-{position}, {start} starts: {sum(final)}/20"
+        (final,) = final_rates(results, 1, start)
+        assert final.n == 20
+        assert final.rate >= TARGET, f"single-{position}, {start} starts: {final.successes}/20"
