@@ -5,15 +5,24 @@ depend on the task only), so each start gives a pair of outcomes: the final chec
 and of run B on that task from that start. Only the pairs where exactly one run succeeded say
 which is better; McNemar's exact test asks whether those split evenly. The comparison is made
 per task and pooled over the tasks both runs learned, for each kind of start.
+
+FWT, NBT and AUC are compared through their difference (A - B) with its 95% bootstrap interval.
+When both runs learned the same tasks and were evaluated alike (as two algorithms run with one
+preset are), the bootstrap resamples the same starts in both, and a paired permutation test
+(swapping the two runs' outcomes from a start at random; McNemar's test when the metric is one
+success rate) says whether the difference is significant. Otherwise the runs are drawn
+independently and a difference is called significant when its interval excludes zero.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from libero_bench.intervals import METRICS, interval, swap_test
 from libero_bench.run_files import AFTER, LEARNING, STARTS, STORED
 from libero_bench.runs import RunSummary, load_run
 from libero_data.errors import RunError
@@ -109,6 +118,31 @@ def pair(
     }
 
 
+def metric_differences(run_a: RunSummary, run_b: RunSummary, start: str) -> dict[str, Any] | None:
+    """FWT, NBT and AUC of both runs from one kind of start, with the 95% bootstrap interval of
+    A - B; None when the runs did not learn the same tasks in the same order."""
+    names_a = [t["name"] for t in run_a.results.tasks][: run_a.tasks_done]
+    names_b = [t["name"] for t in run_b.results.tasks][: run_b.tasks_done]
+    if names_a != names_b or not (run_a.has(start) and run_b.has(start)):
+        return None
+    draws_a, draws_b = run_a.draws(start), run_b.draws(start)
+    out: dict[str, Any] = {"paired": draws_a.layout == draws_b.layout, "metrics": {}}
+    for name in METRICS:
+        a, b = draws_a.value(name), draws_b.value(name)
+        if not (math.isfinite(a) and math.isfinite(b)):
+            continue
+        low, high = interval(draws_a.metric(name) - draws_b.metric(name))
+        row: dict[str, Any] = {"a": a, "b": b, "difference": a - b, "low": low, "high": high}
+        if out["paired"]:
+            row["p_value"] = swap_test(draws_a, draws_b, name)
+            row["significant"] = bool(row["p_value"] < ALPHA)
+        else:
+            row["p_value"] = None
+            row["significant"] = bool(low > 0 or high < 0)
+        out["metrics"][name] = row
+    return out
+
+
 def compare_runs(path_a: str | Path, path_b: str | Path) -> dict[str, Any]:
     """The comparison of two runs (see the module docstring) as a JSON-ready dict."""
     run_a, run_b = load_run(path_a), load_run(path_b)
@@ -124,6 +158,7 @@ def compare_runs(path_a: str | Path, path_b: str | Path) -> dict[str, Any]:
             *(sum(getattr(p, f) for p in tasks.values()) for f in ("a", "b", "only_a", "only_b", "n"))
         )
         out[start] = {"tasks": {name: p.to_dict() for name, p in tasks.items()}, "all": total.to_dict()}
+        out[start]["difference"] = metric_differences(run_a, run_b, start)
     if out[STORED] is None and out.get("heldout") is None:
         raise RunError(f"{run_a.path} and {run_b.path} share no evaluated task; there is nothing to compare")
     return out
@@ -138,6 +173,27 @@ def verdict(row: Mapping[str, Any], a: str, b: str) -> str:
     if row["significant"]:
         return f"{better} succeeds more often (McNemar exact p = {p:.3g} < {ALPHA})"
     return f"no significant difference (McNemar exact p = {p:.3g} ≥ {ALPHA})"
+
+
+def metric_verdict(name: str, row: Mapping[str, Any], a: str, b: str) -> str:
+    """One metric's difference in words."""
+    p = row["p_value"]
+    if p is None:
+        why = "the interval of the difference " + ("excludes 0" if row["significant"] else "includes 0")
+    else:
+        why = f"paired permutation p = {p:.3g} {'<' if row['significant'] else '≥'} {ALPHA}"
+    if not row["significant"]:
+        return f"no significant difference ({why})"
+    higher = a if row["difference"] > 0 else b
+    return f"{higher}'s {name.upper()} is higher ({why})"
+
+
+def metric_line(name: str, row: Mapping[str, Any], a: str = "A", b: str = "B") -> str:
+    """'NBT: A 0.60, B 0.05, A - B 0.55 [0.40, 0.70]; ...'"""
+    return (
+        f"{name.upper()}: {a} {row['a']:.2f}, {b} {row['b']:.2f}, {a} − {b} {row['difference']:+.2f} "
+        f"[{row['low']:+.2f}, {row['high']:+.2f}]; {metric_verdict(name, row, a, b)}"
+    )
 
 
 def markdown(result: Mapping[str, Any]) -> str:
@@ -160,4 +216,26 @@ def markdown(result: Mapping[str, Any]) -> str:
                 f"| {start} | {name} | {row['n']} | {row['a']['successes']} | {row['b']['successes']} | "
                 f"{row['only_a']} | {row['only_b']} | {row['p_value']:.3g} | {verdict(row, 'A', 'B')} |"
             )
+    rows = [(start, result[start]["difference"]) for start in STARTS if result.get(start)]
+    rows = [(start, d) for start, d in rows if d and d["metrics"]]
+    if rows:
+        lines += [
+            "",
+            "FWT, NBT and AUC: the difference A − B with its 95% bootstrap interval"
+            + (
+                " (the same starts resampled in both runs) and a paired permutation test."
+                if all(d["paired"] for _, d in rows)
+                else " (runs drawn independently; not evaluated alike, so not paired)."
+            ),
+            "",
+            "| starts | metric | A | B | A − B [95% interval] | verdict |",
+            "|---|---|---:|---:|---:|---|",
+        ]
+        for start, d in rows:
+            for name, row in d["metrics"].items():
+                lines.append(
+                    f"| {start} | {name.upper()} | {row['a']:.2f} | {row['b']:.2f} | "
+                    f"{row['difference']:+.2f} [{row['low']:+.2f}, {row['high']:+.2f}] | "
+                    f"{metric_verdict(name, row, 'A', 'B')} |"
+                )
     return "\n".join(lines) + "\n"

@@ -61,11 +61,12 @@ def cell_outcomes(
 ) -> tuple[list[list[np.ndarray]], list[list[np.ndarray]]]:
     """The rollout outcomes (0/1 arrays) behind every ``curve`` and ``after`` cell, from one
     kind of start. A cell without rollouts of its own (MTL copies its kept curve into ``after``)
-    is empty."""
+    is empty. Within a cell the outcomes are in rollout order."""
     k, epochs = tasks_done, results.eval_epochs
     curve: list[list[list[int]]] = [[[] for _ in epochs] for _ in range(k)]
     after: list[list[list[int]]] = [[[] for _ in range(k)] for _ in range(k)]
-    for r in results.rollouts:
+    # In rollout order, so that a cell's i-th outcome comes from the same start in every run.
+    for r in sorted(results.rollouts, key=lambda r: int(r["rollout"])):
         if r.get("start", STORED) != start or r["task_position"] >= k:
             continue
         pos = int(r["task_position"])
@@ -100,14 +101,22 @@ class RunDraws:
         self.results, self.k, self.start, self.draws = results, tasks_done, start, draws
         self.rng = np.random.default_rng(seed)
         curve_cells, after_cells = cell_outcomes(results, tasks_done, start)
+        #: Rollouts per cell. Two runs with the same layout get the same resampled indices from
+        #: the same seed, so their draws stay paired start for start.
+        self.layout = tuple(tuple(c.size for c in row) for row in [*curve_cells, *after_cells])
+        self.cells = curve_cells, after_cells
         self.point = _as_matrices(results, tasks_done, start)
         self.curves = self._draw(curve_cells, self.point[0])  # (B, K, E)
         self.afters = self._draw(after_cells, self.point[1])  # (B, K, K)
         self.kept = None if start == STORED else [results.kept_index(t) for t in range(tasks_done)]
-        if not any(r.get("phase") == AFTER for r in results.rollouts):
-            # MTL: after[tau][k] is the kept curve point of task k, for every tau.
-            for t in range(tasks_done):
-                self.afters[:, :, t] = self.curves[:, t, results.kept_index(t)][:, None]
+        self.fill_mtl_after(self.curves, self.afters)
+
+    def fill_mtl_after(self, curves: np.ndarray, afters: np.ndarray) -> None:
+        """For MTL (no rollouts after other tasks): after[tau][k] is the kept curve point of
+        task k, for every tau. In place, on (B, K, E) and (B, K, K) draws."""
+        if not any(r.get("phase") == AFTER for r in self.results.rollouts):
+            for t in range(self.k):
+                afters[:, :, t] = curves[:, t, self.results.kept_index(t)][:, None]
 
     def _draw(self, cells: list[list[np.ndarray]], point: np.ndarray) -> np.ndarray:
         out = np.repeat(point[None], self.draws, axis=0)
@@ -120,11 +129,16 @@ class RunDraws:
 
     def metric(self, name: str) -> np.ndarray:
         """The metric's value in every draw: (B,) (NaN where it is undefined)."""
+        return self.metric_of(name, self.curves, self.afters)
+
+    def metric_of(self, name: str, curves: np.ndarray, afters: np.ndarray) -> np.ndarray:
+        """The metric of each of (B, K, E) curve and (B, K, K) after matrices, with this run's
+        kept epochs: (B,), NaN where it is undefined."""
         fn = _METRIC_FNS[name]
-        values = np.full(self.draws, np.nan)
-        for b in range(self.draws):
+        values = np.full(curves.shape[0], np.nan)
+        for b in range(curves.shape[0]):
             try:
-                values[b] = fn(self.curves[b], self.afters[b], self.kept)
+                values[b] = fn(curves[b], afters[b], self.kept)
             except ValueError:  # a cell with no measurement: the metric is undefined
                 values[b] = math.nan
         return values
@@ -134,6 +148,42 @@ class RunDraws:
             return float(_METRIC_FNS[name](self.point[0], self.point[1], self.kept))
         except ValueError:
             return math.nan
+
+
+def swap_test(a: RunDraws, b: RunDraws, name: str, draws: int = DRAWS, seed: int = SEED) -> float:
+    """Two-sided p-value of a paired permutation test of ``metric(A) - metric(B)``.
+
+    If the two runs were exchangeable, either run's outcome from a start (in every cell) could
+    as well have been the other's: each pair is swapped with probability 1/2, the metric
+    difference recomputed, and p is the share of draws at least as far from 0 as the observed
+    one. For one cell this is McNemar's exact test (estimated from the draws). Needs both runs
+    evaluated alike (the same :attr:`RunDraws.layout`)."""
+    if a.layout != b.layout:
+        raise ValueError(
+            "the runs were not evaluated alike (cells or rollouts differ); they cannot be paired"
+        )
+    rng = np.random.default_rng(seed)
+    swapped = []
+    for index in range(2):
+        out_a = np.repeat(a.point[index][None], draws, axis=0)
+        out_b = np.repeat(b.point[index][None], draws, axis=0)
+        for i, (row_a, row_b) in enumerate(zip(a.cells[index], b.cells[index], strict=True)):
+            for j, (x, y) in enumerate(zip(row_a, row_b, strict=True)):
+                if x.size:
+                    swap = rng.random((draws, x.size)) < 0.5
+                    out_a[:, i, j] = np.where(swap, y, x).mean(axis=1)
+                    out_b[:, i, j] = np.where(swap, x, y).mean(axis=1)
+        swapped.append((out_a, out_b))
+    (curves_a, curves_b), (afters_a, afters_b) = swapped
+    a.fill_mtl_after(curves_a, afters_a)
+    b.fill_mtl_after(curves_b, afters_b)
+    observed = abs(a.value(name) - b.value(name))
+    if not math.isfinite(observed):
+        return math.nan
+    null = np.abs(a.metric_of(name, curves_a, afters_a) - b.metric_of(name, curves_b, afters_b))
+    null = null[np.isfinite(null)]
+    # At least as far from 0 (with a tolerance for rounding), counting the observed draw itself.
+    return float((1 + np.sum(null >= observed - 1e-9)) / (1 + null.size))
 
 
 def _as_matrices(results: RunResults, k: int, start: str) -> tuple[np.ndarray, np.ndarray]:

@@ -52,9 +52,11 @@ def compare_cmd(
     """Is one run better than another? McNemar's exact test on their final checkpoints' paired outcomes.
 
     Both runs were evaluated from the same starts (stored and held-out); each start pairs run A's
-    outcome with run B's, per task and over all tasks, for each kind of start.
+    outcome with run B's, per task and over all tasks, for each kind of start. For runs over the
+    same tasks, FWT, NBT and AUC are compared too: the difference A − B with its 95% bootstrap
+    interval (paired over starts when both runs were evaluated alike).
     """
-    from libero_bench.compare import compare_runs, markdown, verdict
+    from libero_bench.compare import compare_runs, markdown, metric_line, verdict
     from libero_data.runtime.files import write_json, write_text
 
     result = compare_runs(run_a, run_b)
@@ -67,6 +69,8 @@ def compare_cmd(
                 f"{start} starts, all tasks: A {row['a']['successes']}/{row['n']}, B {row['b']['successes']}/{row['n']}; "
                 + verdict(row, "A", "B")
             )
+            for name, metric in (block["difference"] or {}).get("metrics", {}).items():
+                say(f"{start} starts, {metric_line(name, metric)}")
     if out is not None:
         write_json(out / "compare.json", result)
         write_text(out / "compare.md", text)

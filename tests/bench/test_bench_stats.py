@@ -170,6 +170,16 @@ def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) 
     assert task1["p_value"] == 1.0 and not task1["significant"]
     assert result["stored"]["all"]["n"] == 40 and result["heldout"] is None
 
+    # Forgetting: SeqL lost task 0 (NBT 0.9), ER kept it (NBT 0); a paired interval of A - B.
+    difference = result["stored"]["difference"]
+    assert difference["paired"]
+    nbt = difference["metrics"]["nbt"]
+    assert (nbt["a"], nbt["b"]) == (pytest.approx(0.9), pytest.approx(0.0))
+    assert 0.5 < nbt["low"] <= nbt["difference"] <= nbt["high"] <= 1.0
+    assert nbt["p_value"] < 0.01 and nbt["significant"]
+    fwt = difference["metrics"]["fwt"]  # both learned both tasks from every start
+    assert fwt["difference"] == 0.0 and fwt["p_value"] == 1.0 and not fwt["significant"]
+
     # Through the command line: one line per kind of start, and the files.
     done = subprocess.run(
         [
@@ -189,7 +199,40 @@ def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) 
     assert done.returncode == 0, done.stderr
     assert "stored starts, all tasks: A 22/40, B 40/40; B succeeds more often" in done.stdout
     assert json.loads((tmp_path / "cmp" / "compare.json").read_text())["stored"]["all"]["significant"]
+    assert "stored starts, NBT: A 0.90, B 0.00, A − B +0.90 [" in done.stdout
+    assert "A's NBT is higher" in done.stdout
     assert "McNemar" in (tmp_path / "cmp" / "compare.md").read_text()
+    assert "| stored | NBT | 0.90 | 0.00 | +0.90 [" in (tmp_path / "cmp" / "compare.md").read_text()
+
+
+def test_the_nbt_difference_is_not_significant_when_both_runs_forget_alike(tmp_path: Path) -> None:
+    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 10, [1] * 10], after=[1, 0] * 5)
+    b = _fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 10, [1] * 10], after=[0, 1] * 5)
+    nbt = compare_runs(a, b)["stored"]["difference"]["metrics"]["nbt"]
+    assert nbt["difference"] == 0.0 and nbt["low"] < 0 < nbt["high"]
+    assert nbt["p_value"] == 1.0 and not nbt["significant"]
+
+
+def test_runs_evaluated_differently_are_compared_by_independent_bootstraps(tmp_path: Path) -> None:
+    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 20, [1] * 20], after=[0] * 20)
+    b = _fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 10, [1] * 10], after=[1] * 10)
+    difference = compare_runs(a, b)["stored"]["difference"]
+    nbt = difference["metrics"]["nbt"]
+    assert not difference["paired"] and nbt["p_value"] is None
+    assert nbt["difference"] == 1.0 and nbt["significant"]  # the interval [1, 1] excludes 0
+
+
+@pytest.mark.parametrize("only_a", [4, 5, 7])
+def test_the_permutation_test_of_one_success_rate_is_mcnemars(tmp_path: Path, only_a: int) -> None:
+    """A one-task run's FWT is one success rate: swapping paired outcomes at random is McNemar's
+    exact test, up to the error of 2000 draws."""
+    run = {"algo": "seql", "seed": 0, "after": [1] * 20}
+    a = _fake_run(tmp_path / "a", **run, learn=[[1] * 20, [1] * only_a + [0] * (20 - only_a)])
+    b = _fake_run(tmp_path / "b", **run, learn=[[1] * 20, [0] * 20])
+    fwt = compare_runs(a, b)["stored"]["difference"]["metrics"]["fwt"]
+    assert fwt["difference"] == pytest.approx(only_a / 40)
+    assert fwt["p_value"] == pytest.approx(mcnemar_exact(only_a, 0), abs=0.02)
+    assert fwt["significant"] == (mcnemar_exact(only_a, 0) < 0.05)
 
 
 def test_runs_evaluated_from_other_starts_are_not_paired(tmp_path: Path) -> None:
