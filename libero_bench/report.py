@@ -183,7 +183,7 @@ def markdown_table(summary: dict[str, Any]) -> str:
 def write_report(run_paths: Sequence[str | Path], out: str | Path) -> dict[str, Any]:
     """Write ``report.json``, ``report.md`` and the PNGs into ``out``; returns the summary
     (with ``files``: what was written)."""
-    from libero_bench.report_plots import group_plots
+    from libero_bench.report_plots import group_plots, methods_plot
 
     if not run_paths:
         raise InputError("give at least one run folder", field="runs")
@@ -195,6 +195,8 @@ def write_report(run_paths: Sequence[str | Path], out: str | Path) -> dict[str, 
     for group in summary["groups"]:
         members = [r for r in runs if str(r.path) in group["runs"]]
         files.extend(group_plots(members, group, out))
+    if len(summary["groups"]) > 1:
+        files.append(methods_plot(summary["groups"], out))
     files.append(write_text(out / "report.md", "# libero-bench report\n\n" + markdown_table(summary)))
     summary["files"] = [str(p) for p in [*files, out / "report.json"]]
     write_json(out / "report.json", summary)

@@ -1,5 +1,6 @@
 """The report's pictures, one set per method: the success matrix (stored | held-out starts),
-learning curves with Wilson error bars, and FWT / NBT / AUC with their 95% intervals."""
+learning curves with Wilson error bars, and FWT / NBT / AUC with their 95% intervals; and where
+a report holds several methods, their FWT / NBT / AUC side by side."""
 
 from __future__ import annotations
 
@@ -137,6 +138,44 @@ def _metrics(group: dict[str, Any], out: Path) -> Path:
     ax.legend(fontsize=7)
     fig.tight_layout()
     path = out / f"{group['slug']}_metrics.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def methods_plot(groups: Sequence[dict[str, Any]], out: Path) -> Path:
+    """FWT, NBT and AUC of every method side by side, one panel per kind of start, with the
+    95% intervals: where the methods of one report differ."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    starts = [s for s in STARTS if any(g[s] is not None for g in groups)]
+    fig, axes = plt.subplots(1, len(starts), figsize=(0.8 + 3.6 * len(starts), 3.2), dpi=120, sharey=True)
+    axes = np.atleast_1d(axes)
+    width = 0.8 / len(groups)
+    colours = plt.get_cmap("tab10")
+    for ax, start in zip(axes, starts, strict=True):
+        for i, group in enumerate(groups):
+            if group[start] is None:
+                continue
+            stats = [group[start][m] for m in METRICS]
+            x = np.arange(len(METRICS)) + (i - (len(groups) - 1) / 2) * width
+            y = np.array([s["mean"] if s["mean"] is not None else np.nan for s in stats], dtype=float)
+            low = np.array([s["low"] if s["low"] is not None else np.nan for s in stats], dtype=float)
+            high = np.array([s["high"] if s["high"] is not None else np.nan for s in stats], dtype=float)
+            ax.bar(x, y, width=width, color=colours(i % 10), label=group["label"][:40])
+            ax.errorbar(x, y, yerr=np.vstack([y - low, high - y]), fmt="none", ecolor="k", capsize=3)
+        ax.axhline(0.0, color="k", linewidth=0.5)
+        ax.set_xticks(range(len(METRICS)), ["FWT (↑)", "NBT (↓)", "AUC (↑)"])
+        ax.set_title(LABELS[start], fontsize=9)
+    axes[0].set_ylabel("mean with 95% interval")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=min(len(groups), 4), frameon=False)
+    fig.suptitle("methods compared", fontsize=9)
+    fig.tight_layout(rect=(0, 0.08 + 0.04 * ((len(groups) - 1) // 4), 1, 1))
+    path = out / "methods_metrics.png"
     fig.savefig(path)
     plt.close(fig)
     return path

@@ -128,6 +128,7 @@ def test_report_gives_rates_with_n_and_intervals_from_both_kinds_of_start(tmp_pa
         "seql-resnet-t_metrics.png",
     ):
         assert (tmp_path / "report" / name).read_bytes()[:4] == b"\x89PNG"
+    assert not (tmp_path / "report" / "methods_metrics.png").exists()  # one method: nothing to set beside
     # The draws are seeded: the same runs give the same interval.
     wide = summarize([load_run(run)])["groups"][0]["stored"]["nbt"]
     assert wide["high"] - wide["low"] == pytest.approx(stored["nbt"]["high"] - stored["nbt"]["low"])
@@ -203,6 +204,11 @@ def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) 
     assert "A's NBT is higher" in done.stdout
     assert "McNemar" in (tmp_path / "cmp" / "compare.md").read_text()
     assert "| stored | NBT | 0.90 | 0.00 | +0.90 [" in (tmp_path / "cmp" / "compare.md").read_text()
+
+    # The report of the two sets their FWT, NBT and AUC side by side.
+    summary = write_report([seql, er], tmp_path / "report")
+    assert str(tmp_path / "report" / "methods_metrics.png") in summary["files"]
+    assert (tmp_path / "report" / "methods_metrics.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_the_nbt_difference_is_not_significant_when_both_runs_forget_alike(tmp_path: Path) -> None:
