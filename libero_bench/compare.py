@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_bench.intervals import METRICS, interval, swap_test
+from libero_bench.intervals import DRAWS, METRICS, interval, swap_test
 from libero_bench.run_files import AFTER, LEARNING, STARTS, STORED
 from libero_bench.runs import RunSummary, load_run
 from libero_data.errors import RunError
@@ -182,6 +182,8 @@ def metric_verdict(name: str, row: Mapping[str, Any], a: str, b: str) -> str:
         why = "the interval of the difference " + ("excludes 0" if row["significant"] else "includes 0")
     else:
         why = f"paired permutation p = {p:.3g} {'<' if row['significant'] else '≥'} {ALPHA}"
+        if p * (DRAWS + 1) < 1.5:  # no swap as far from 0: p is the least the draws can show
+            why = f"paired permutation p ≤ {p:.1g}: none of {DRAWS} random swaps as far from 0"
     if not row["significant"]:
         return f"no significant difference ({why})"
     higher = a if row["difference"] > 0 else b

@@ -201,7 +201,7 @@ def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) 
     assert "stored starts, all tasks: A 22/40, B 40/40; B succeeds more often" in done.stdout
     assert json.loads((tmp_path / "cmp" / "compare.json").read_text())["stored"]["all"]["significant"]
     assert "stored starts, NBT: A 0.90, B 0.00, A − B +0.90 [" in done.stdout
-    assert "A's NBT is higher" in done.stdout
+    assert "A's NBT is higher (paired permutation p ≤ 0.0005: none of 2000 random swaps" in done.stdout
     assert "McNemar" in (tmp_path / "cmp" / "compare.md").read_text()
     assert "| stored | NBT | 0.90 | 0.00 | +0.90 [" in (tmp_path / "cmp" / "compare.md").read_text()
 
