@@ -232,9 +232,9 @@ def test_runs_evaluated_differently_are_compared_by_independent_bootstraps(tmp_p
 def test_the_permutation_test_of_one_success_rate_is_mcnemars(tmp_path: Path, only_a: int) -> None:
     """A one-task run's FWT is one success rate: swapping paired outcomes at random is McNemar's
     exact test, up to the error of 2000 draws."""
-    run = {"algo": "seql", "seed": 0, "after": [1] * 20}
-    a = _fake_run(tmp_path / "a", **run, learn=[[1] * 20, [1] * only_a + [0] * (20 - only_a)])
-    b = _fake_run(tmp_path / "b", **run, learn=[[1] * 20, [0] * 20])
+    learn_a = [[1] * 20, [1] * only_a + [0] * (20 - only_a)]
+    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=learn_a, after=[1] * 20)
+    b = _fake_run(tmp_path / "b", algo="seql", seed=0, learn=[[1] * 20, [0] * 20], after=[1] * 20)
     fwt = compare_runs(a, b)["stored"]["difference"]["metrics"]["fwt"]
     assert fwt["difference"] == pytest.approx(only_a / 40)
     assert fwt["p_value"] == pytest.approx(mcnemar_exact(only_a, 0), abs=0.02)
