@@ -190,11 +190,16 @@ def metric_verdict(name: str, row: Mapping[str, Any], a: str, b: str) -> str:
     return f"{higher}'s {name.upper()} is higher ({why})"
 
 
+def _difference(row: Mapping[str, Any]) -> str:
+    """'+0.55 [+0.40, +0.70]'"""
+    return f"{row['difference']:+.2f} [{row['low']:+.2f}, {row['high']:+.2f}]"
+
+
 def metric_line(name: str, row: Mapping[str, Any], a: str = "A", b: str = "B") -> str:
-    """'NBT: A 0.60, B 0.05, A - B 0.55 [0.40, 0.70]; ...'"""
+    """'NBT: A 0.60, B 0.05, A − B +0.55 [+0.40, +0.70]; ...'"""
     return (
-        f"{name.upper()}: {a} {row['a']:.2f}, {b} {row['b']:.2f}, {a} − {b} {row['difference']:+.2f} "
-        f"[{row['low']:+.2f}, {row['high']:+.2f}]; {metric_verdict(name, row, a, b)}"
+        f"{name.upper()}: {a} {row['a']:.2f}, {b} {row['b']:.2f}, {a} − {b} {_difference(row)}; "
+        + metric_verdict(name, row, a, b)
     )
 
 
@@ -236,8 +241,7 @@ def markdown(result: Mapping[str, Any]) -> str:
         for start, d in rows:
             for name, row in d["metrics"].items():
                 lines.append(
-                    f"| {start} | {name.upper()} | {row['a']:.2f} | {row['b']:.2f} | "
-                    f"{row['difference']:+.2f} [{row['low']:+.2f}, {row['high']:+.2f}] | "
+                    f"| {start} | {name.upper()} | {row['a']:.2f} | {row['b']:.2f} | {_difference(row)} | "
                     f"{metric_verdict(name, row, 'A', 'B')} |"
                 )
     return "\n".join(lines) + "\n"

@@ -125,15 +125,10 @@ def _metrics(group: dict[str, Any], out: Path) -> Path:
     starts = [s for s in STARTS if group[s] is not None]
     width = 0.8 / max(len(starts), 1)
     for i, start in enumerate(starts):
-        stats = [group[start][m] for m in METRICS]
-        x = np.arange(len(METRICS)) + (i - (len(starts) - 1) / 2) * width
-        y = np.array([s["mean"] if s["mean"] is not None else np.nan for s in stats], dtype=float)
-        low = np.array([s["low"] if s["low"] is not None else np.nan for s in stats], dtype=float)
-        high = np.array([s["high"] if s["high"] is not None else np.nan for s in stats], dtype=float)
-        ax.bar(x, y, width=width, color=COLOURS[start], label=LABELS[start])
-        ax.errorbar(x, y, yerr=np.vstack([y - low, high - y]), fmt="none", ecolor="k", capsize=3)
-    ax.axhline(0.0, color="k", linewidth=0.5)
-    ax.set_xticks(range(len(METRICS)), ["FWT (↑)", "NBT (↓)", "AUC (↑)"])
+        _metric_bars(
+            ax, group[start], (i - (len(starts) - 1) / 2) * width, width, COLOURS[start], LABELS[start]
+        )
+    _metric_axis(ax)
     ax.set_title(f"{group['label']}: 95% intervals", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -160,15 +155,9 @@ def methods_plot(groups: Sequence[dict[str, Any]], out: Path) -> Path:
         for i, group in enumerate(groups):
             if group[start] is None:
                 continue
-            stats = [group[start][m] for m in METRICS]
-            x = np.arange(len(METRICS)) + (i - (len(groups) - 1) / 2) * width
-            y = np.array([s["mean"] if s["mean"] is not None else np.nan for s in stats], dtype=float)
-            low = np.array([s["low"] if s["low"] is not None else np.nan for s in stats], dtype=float)
-            high = np.array([s["high"] if s["high"] is not None else np.nan for s in stats], dtype=float)
-            ax.bar(x, y, width=width, color=colours(i % 10), label=group["label"][:40])
-            ax.errorbar(x, y, yerr=np.vstack([y - low, high - y]), fmt="none", ecolor="k", capsize=3)
-        ax.axhline(0.0, color="k", linewidth=0.5)
-        ax.set_xticks(range(len(METRICS)), ["FWT (↑)", "NBT (↓)", "AUC (↑)"])
+            offset = (i - (len(groups) - 1) / 2) * width
+            _metric_bars(ax, group[start], offset, width, colours(i % 10), group["label"][:40])
+        _metric_axis(ax)
         ax.set_title(LABELS[start], fontsize=9)
     axes[0].set_ylabel("mean with 95% interval")
     handles, labels = axes[0].get_legend_handles_labels()
@@ -179,3 +168,22 @@ def methods_plot(groups: Sequence[dict[str, Any]], out: Path) -> Path:
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _metric_bars(
+    ax: Any, stats: dict[str, Any], offset: float, width: float, colour: Any, label: str
+) -> None:
+    """One bar per metric at ``offset`` from its tick, with its 95% interval as an error bar."""
+    rows = [stats[m] for m in METRICS]
+    x = np.arange(len(METRICS)) + offset
+    y, low, high = (
+        np.array([r[key] if r[key] is not None else np.nan for r in rows], dtype=float)
+        for key in ("mean", "low", "high")
+    )
+    ax.bar(x, y, width=width, color=colour, label=label)
+    ax.errorbar(x, y, yerr=np.vstack([y - low, high - y]), fmt="none", ecolor="k", capsize=3)
+
+
+def _metric_axis(ax: Any) -> None:
+    ax.axhline(0.0, color="k", linewidth=0.5)
+    ax.set_xticks(range(len(METRICS)), ["FWT (↑)", "NBT (↓)", "AUC (↑)"])
