@@ -3,7 +3,9 @@ and meet the target the preset is held to.
 
 Reads the committed files only (no training, no simulation): a change of the ``quick`` preset
 or of the quick policy size that is not followed by new results (``benchmarks/quick.sh``), a
-single-task result under 80% from either kind of start must not land.
+single-task result under 80% from either kind of start must not land; nor may a lifelong pair
+(SeqL and ER) whose two runs differ in anything but the algorithm, or whose report and paired
+comparison are missing.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from libero_bench.run_files import STARTS, RunResults
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "quick"
 SINGLE = ("single-0", "single-1", "single-2")
+LIFELONG = ("seql", "er")
 TARGET = 0.8
 
 
@@ -31,7 +34,7 @@ def _run(name: str) -> tuple[dict[str, Any], RunResults]:
     )
 
 
-@pytest.mark.parametrize("name", SINGLE)
+@pytest.mark.parametrize("name", SINGLE + LIFELONG)
 def test_each_committed_run_was_made_with_todays_quick_preset_and_policy(name: str) -> None:
     from libero_bench.policies import policy_config
 
@@ -64,3 +67,44 @@ def test_each_libero_object_task_trained_alone_reaches_the_target_from_both_kind
         (final,) = final_rates(results, 1, start)
         assert final.n == 20
         assert final.rate >= TARGET, f"single-{position}, {start} starts: {final.successes}/20"
+
+
+def test_the_lifelong_pair_shares_data_tasks_and_seed() -> None:
+    (seql, _), (er, _) = _run("seql"), _run("er")
+    assert (seql["algo"], er["algo"]) == ("seql", "er")
+    for key in ("data", "dataset", "tasks", "seed", "preset", "policy_config"):
+        assert seql[key] == er[key], key
+    assert [t["suite_index"] for t in seql["tasks"]] == [0, 1, 2]
+    report = json.loads((RESULTS / "lifelong" / "report.json").read_text())
+    assert sorted(g["algo"] for g in report["groups"]) == ["er", "seql"]
+    for group in report["groups"]:  # forgetting with its interval, from both kinds of start
+        for start in STARTS:
+            nbt = group[start]["nbt"]
+            assert nbt["low"] <= nbt["mean"] <= nbt["high"]
+    assert (RESULTS / "lifelong" / "compare.md").is_file()
+    compare = json.loads((RESULTS / "lifelong" / "compare.json").read_text())
+    assert (compare["a"]["label"], compare["b"]["label"]) == ("seql + resnet_t", "er + resnet_t")
+    for start in STARTS:  # the committed claim: SeqL forgets more than ER, by a tested margin
+        nbt = compare[start]["difference"]["metrics"]["nbt"]
+        assert nbt["significant"] and nbt["low"] > 0, (start, nbt)
+
+
+def test_the_committed_comparison_is_what_compare_makes_from_the_committed_runs() -> None:
+    from libero_bench.compare import compare_runs
+
+    made = compare_runs(RESULTS / "runs" / "seql", RESULTS / "runs" / "er")
+    committed = json.loads((RESULTS / "lifelong" / "compare.json").read_text())
+    for start in STARTS:  # McNemar per task, seeded bootstrap intervals and permutation p
+        _assert_close(json.loads(json.dumps(made[start])), committed[start], start)
+
+
+def _assert_close(made: Any, committed: Any, where: str) -> None:
+    """Equal, floats to 1e-9: the summation order of another CPU's SIMD kernel may move last bits."""
+    if isinstance(committed, dict):
+        assert made.keys() == committed.keys(), where
+        for key in committed:
+            _assert_close(made[key], committed[key], f"{where}.{key}")
+    elif isinstance(committed, float):
+        assert made == pytest.approx(committed, rel=1e-9, abs=1e-12), where
+    else:
+        assert made == committed, where
