@@ -64,8 +64,7 @@ def final_outcomes(run: RunSummary, start: str) -> dict[tuple[str, int], tuple[b
     """(task name, rollout) -> (success, init index, seed) of the final checkpoint's rollouts on
     each finished task: those after the last task, or for the task learned last (and for MTL)
     those of the kept epoch."""
-    results, last = run.results, run.tasks_done - 1
-    names = [t["name"] for t in results.tasks]
+    results, last, names = run.results, run.tasks_done - 1, run.learned
     out: dict[tuple[str, int], tuple[bool, int, int]] = {}
     after = {
         (r["task_position"], r["rollout"]): r
@@ -121,20 +120,20 @@ def pair(
 def metric_differences(run_a: RunSummary, run_b: RunSummary, start: str) -> dict[str, Any] | None:
     """FWT, NBT and AUC of both runs from one kind of start, with the 95% bootstrap interval of
     A - B; None when the runs did not learn the same tasks in the same order."""
-    names_a = [t["name"] for t in run_a.results.tasks][: run_a.tasks_done]
-    names_b = [t["name"] for t in run_b.results.tasks][: run_b.tasks_done]
-    if names_a != names_b or not (run_a.has(start) and run_b.has(start)):
+    if run_a.learned != run_b.learned or not (run_a.has(start) and run_b.has(start)):
         return None
     draws_a, draws_b = run_a.draws(start), run_b.draws(start)
     out: dict[str, Any] = {"paired": draws_a.layout == draws_b.layout, "metrics": {}}
-    for name in METRICS:
+    names = [
+        name for name in METRICS if math.isfinite(draws_a.value(name)) and math.isfinite(draws_b.value(name))
+    ]
+    p_values = swap_test(draws_a, draws_b, names) if out["paired"] else {}
+    for name in names:
         a, b = draws_a.value(name), draws_b.value(name)
-        if not (math.isfinite(a) and math.isfinite(b)):
-            continue
         low, high = interval(draws_a.metric(name) - draws_b.metric(name))
         row: dict[str, Any] = {"a": a, "b": b, "difference": a - b, "low": low, "high": high}
         if out["paired"]:
-            row["p_value"] = swap_test(draws_a, draws_b, name)
+            row["p_value"] = p_values[name]
             row["significant"] = bool(row["p_value"] < ALPHA)
         else:
             row["p_value"] = None

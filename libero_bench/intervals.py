@@ -101,20 +101,25 @@ class RunDraws:
         self.results, self.k, self.start, self.draws = results, tasks_done, start, draws
         self.rng = np.random.default_rng(seed)
         curve_cells, after_cells = cell_outcomes(results, tasks_done, start)
-        #: Rollouts per cell. Two runs with the same layout get the same resampled indices from
-        #: the same seed, so their draws stay paired start for start.
-        self.layout = tuple(tuple(c.size for c in row) for row in [*curve_cells, *after_cells])
         self.cells = curve_cells, after_cells
+        #: MTL learns all tasks at once: no rollouts after other tasks.
+        self.mtl = not any(r.get("phase") == AFTER for r in results.rollouts)
         self.point = _as_matrices(results, tasks_done, start)
         self.curves = self._draw(curve_cells, self.point[0])  # (B, K, E)
         self.afters = self._draw(after_cells, self.point[1])  # (B, K, K)
         self.kept = None if start == STORED else [results.kept_index(t) for t in range(tasks_done)]
         self.fill_mtl_after(self.curves, self.afters)
 
+    @property
+    def layout(self) -> tuple[tuple[int, ...], ...]:
+        """Rollouts per cell. Two runs with the same layout get the same resampled indices from
+        the same seed, so their draws stay paired start for start."""
+        return tuple(tuple(c.size for c in row) for cells in self.cells for row in cells)
+
     def fill_mtl_after(self, curves: np.ndarray, afters: np.ndarray) -> None:
         """For MTL (no rollouts after other tasks): after[tau][k] is the kept curve point of
         task k, for every tau. In place, on (B, K, E) and (B, K, K) draws."""
-        if not any(r.get("phase") == AFTER for r in self.results.rollouts):
+        if self.mtl:
             for t in range(self.k):
                 afters[:, :, t] = curves[:, t, self.results.kept_index(t)][:, None]
 
@@ -150,14 +155,18 @@ class RunDraws:
             return math.nan
 
 
-def swap_test(a: RunDraws, b: RunDraws, name: str, draws: int = DRAWS, seed: int = SEED) -> float:
-    """Two-sided p-value of a paired permutation test of ``metric(A) - metric(B)``.
+def swap_test(
+    a: RunDraws, b: RunDraws, names: Sequence[str], draws: int = DRAWS, seed: int = SEED
+) -> dict[str, float]:
+    """Two-sided p-value of a paired permutation test of ``metric(A) - metric(B)``, for each
+    metric in ``names``.
 
     If the two runs were exchangeable, either run's outcome from a start (in every cell) could
     as well have been the other's: each pair is swapped with probability 1/2, the metric
-    difference recomputed, and p is the share of draws at least as far from 0 as the observed
-    one. For one cell this is McNemar's exact test (estimated from the draws). Needs both runs
-    evaluated alike (the same :attr:`RunDraws.layout`)."""
+    differences recomputed, and p is the share of draws at least as far from 0 as the observed
+    one (one set of swaps serves every metric). For one cell this is McNemar's exact test
+    (estimated from the draws). Needs both runs evaluated alike (the same
+    :attr:`RunDraws.layout`)."""
     if a.layout != b.layout:
         raise ValueError(
             "the runs were not evaluated alike (cells or rollouts differ); they cannot be paired"
@@ -177,13 +186,17 @@ def swap_test(a: RunDraws, b: RunDraws, name: str, draws: int = DRAWS, seed: int
     (curves_a, curves_b), (afters_a, afters_b) = swapped
     a.fill_mtl_after(curves_a, afters_a)
     b.fill_mtl_after(curves_b, afters_b)
-    observed = abs(a.value(name) - b.value(name))
-    if not math.isfinite(observed):
-        return math.nan
-    null = np.abs(a.metric_of(name, curves_a, afters_a) - b.metric_of(name, curves_b, afters_b))
-    null = null[np.isfinite(null)]
-    # At least as far from 0 (with a tolerance for rounding), counting the observed draw itself.
-    return float((1 + np.sum(null >= observed - 1e-9)) / (1 + null.size))
+    p_values = {}
+    for name in names:
+        observed = abs(a.value(name) - b.value(name))
+        if not math.isfinite(observed):
+            p_values[name] = math.nan
+            continue
+        null = np.abs(a.metric_of(name, curves_a, afters_a) - b.metric_of(name, curves_b, afters_b))
+        null = null[np.isfinite(null)]
+        # At least as far from 0 (with a tolerance for rounding), counting the observed draw itself.
+        p_values[name] = float((1 + np.sum(null >= observed - 1e-9)) / (1 + null.size))
+    return p_values
 
 
 def _as_matrices(results: RunResults, k: int, start: str) -> tuple[np.ndarray, np.ndarray]:

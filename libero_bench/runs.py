@@ -29,6 +29,11 @@ class RunSummary:
         return (c["algo"], c["policy"], c["preset"]["name"], tuple(t["name"] for t in c["tasks"]))
 
     @property
+    def learned(self) -> list[str]:
+        """Names of the finished tasks, in the order they were learned."""
+        return [t["name"] for t in self.results.tasks][: self.tasks_done]
+
+    @property
     def label(self) -> str:
         return f"{self.config['algo']} + {self.config['policy']}"
 
