@@ -36,7 +36,7 @@ from benchmarks.results import growth_summary, status_mib
 def _jobs(task_ref: str, n: int, size: int, max_steps: int, work: Path, first: int = 0) -> list[Any]:
     import numpy as np
 
-    from libero_bench.evaluate import EvalTask, make_job
+    from libero_bench.rollouts.jobs import EvalTask, make_job
     from libero_data.tasks import get_task
 
     task = get_task(task_ref)
@@ -93,7 +93,7 @@ def rate(
             start = time.perf_counter()
             evaluator.run(policy, _jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers))
             minutes = (time.perf_counter() - start) / 60
-            pids = evaluator.runner.worker_pids()
+            pids = evaluator.worker_pids()
             peaks = [status_mib(pid, "VmHWM") for pid in pids]
         return rollouts / minutes, peaks
     finally:
@@ -114,7 +114,7 @@ def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> lis
         with Evaluator(1, work) as evaluator:
             for r in range(rollouts):
                 evaluator.run(policy, _jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
-                (pid,) = evaluator.runner.worker_pids()
+                (pid,) = evaluator.worker_pids()
                 trace.append(status_mib(pid, "VmRSS"))
                 shutil.rmtree(work / f"m{r}", ignore_errors=True)
         return trace

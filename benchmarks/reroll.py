@@ -20,7 +20,7 @@ def reroll(
 ) -> dict[Any, Any]:
     """Outcomes per (condition, start kind): {(task, rollout): (success, init index, seed)}.
 
-    ``conditions`` maps a name to :func:`libero_bench.evaluate.make_job` keywords
+    ``conditions`` maps a name to :func:`libero_bench.rollouts.jobs.make_job` keywords
     (``render_quality``, ``arm_noise``). ``data`` replaces the run's dataset (held-out seeds
     skip that dataset's demonstration seeds). Also returns ``recorded`` (the run's own final
     outcomes) and ``seconds`` per condition.
@@ -28,9 +28,10 @@ def reroll(
     from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
     from libero_bench.compare import final_outcomes
     from libero_bench.data import DemoDataset
-    from libero_bench.evaluate import Evaluator, make_job
+    from libero_bench.evaluate import Evaluator
     from libero_bench.language import encode_tasks
     from libero_bench.plan import resolve_eval_task
+    from libero_bench.rollouts.jobs import make_job
     from libero_bench.run_files import HELDOUT, STORED, RunFolder
     from libero_bench.runs import load_run
 

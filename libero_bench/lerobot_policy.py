@@ -13,9 +13,10 @@ features, whatever names its training data used:
   MuJoCo state) are served under their names;
 - the task's instruction is the batch's ``task``.
 
-Then the policy's own pre-processor (normalisation, tokenisation, device), ``select_action``
-and post-processor run as ``lerobot-eval`` runs them. An input nothing here can serve is named
-in one sentence before any rollout starts.
+Then the policy's own pre-processor (normalisation, tokenisation, device), its action chunks and
+post-processor run as ``lerobot-eval`` runs them, batched over environments
+(:mod:`libero_bench.rollouts.lerobot_actor`). An input nothing here can serve is named in one
+sentence before any rollout starts.
 """
 
 from __future__ import annotations
@@ -23,15 +24,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-import numpy as np
+from typing import Any
 
 from libero_data.errors import InputError, MissingFileError
-
-if TYPE_CHECKING:
-    from libero_bench.evaluate import RolloutJob, RolloutResult
-    from libero_data.runtime.jobs import WorkerContext
 
 #: Camera input names -> our cameras.
 CAMERA_NAMES = {
@@ -110,82 +105,3 @@ def policy_config(path: Path) -> Any:
             "lerobot-train writes"
         )
     return PreTrainedConfig.from_pretrained(str(path))
-
-
-@dataclass
-class LeRobotActor:
-    """A loaded LeRobot policy with its processors, acting on environment observations."""
-
-    policy: Any
-    preprocessor: Any
-    postprocessor: Any
-    inputs: Inputs
-
-    @classmethod
-    def load(cls, path: Path) -> LeRobotActor:
-        import torch
-        from lerobot.policies.factory import get_policy_class, make_pre_post_processors
-
-        torch.set_num_threads(1)
-        config = policy_config(path)
-        config.device = "cpu"
-        policy = get_policy_class(config.type).from_pretrained(str(path), config=config)
-        policy.eval()
-        pre, post = make_pre_post_processors(
-            policy_cfg=config,
-            pretrained_path=str(path),
-            preprocessor_overrides={"device_processor": {"device": "cpu"}},
-        )
-        return cls(policy, pre, post, serve(config.input_features, f"the {config.type} policy at {path}"))
-
-    def reset(self) -> None:
-        self.policy.reset()
-
-    def batch(self, obs: Mapping[str, Any], instruction: str) -> dict[str, Any]:
-        """The one-frame batch LeRobot's ``rollout`` would build from this observation."""
-        import torch
-        import torch.nn.functional as F
-
-        batch: dict[str, Any] = {"task": [instruction]}
-        for name, (camera, h, w) in self.inputs.cameras.items():
-            image = torch.from_numpy(np.ascontiguousarray(obs[camera])).permute(2, 0, 1)[None].float() / 255.0
-            if image.shape[-2:] != (h, w):
-                image = F.interpolate(
-                    image, size=(h, w), mode="bilinear", antialias=True, align_corners=False
-                )
-            batch[name] = image
-        for name, (key, width) in self.inputs.states.items():
-            batch[name] = torch.from_numpy(self._state(obs, key, width))[None]
-        return batch
-
-    @staticmethod
-    def _state(obs: Mapping[str, Any], key: str, width: int) -> np.ndarray:
-        if key == "eef_pose":
-            return np.concatenate([obs["eef_pos"], obs["eef_quat"]]).astype(np.float32)
-        if key == SIM_STATE:
-            padded = np.zeros(width, dtype=np.float32)
-            state = np.asarray(obs["sim_state"], dtype=np.float32)[:width]
-            padded[: state.shape[0]] = state
-            return padded
-        if key == SIM_STATE_DIM:
-            return np.array([len(obs["sim_state"])], dtype=np.float32)
-        return np.asarray(obs[key], dtype=np.float32)
-
-    def act(self, obs: Mapping[str, Any], instruction: str) -> np.ndarray:
-        import torch
-
-        with torch.inference_mode():
-            action = self.policy.select_action(self.preprocessor(self.batch(obs, instruction)))
-            action = self.postprocessor(action)
-        return np.asarray(action.detach().cpu().numpy()).reshape(-1)[:7]
-
-
-def run_lerobot_rollout(ctx: WorkerContext, job: RolloutJob) -> RolloutResult:
-    """Roll a LeRobot policy (the folder ``ctx.shared``) out once and store the rollout."""
-    from libero_bench.evaluate import roll_out_and_store
-
-    assert ctx.shared is not None, "a LeRobot rollout needs the policy folder"
-    folder = ctx.shared
-    actor = ctx.cache.get("policy", str(folder), lambda: LeRobotActor.load(folder))
-    actor.reset()
-    return roll_out_and_store(ctx, job, lambda obs: actor.act(obs, job.language))

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from libero_bench.evaluate import RolloutResult
+    from libero_bench.rollouts.jobs import RolloutResult
 
 
 class RunObserver:

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     import torch
 
     from libero_bench.algos import Algo
-    from libero_bench.evaluate import EvalTask
+    from libero_bench.rollouts.jobs import EvalTask
 
 #: config.json keys that may change between a run and its resumption
 RUNTIME_KEYS = ("runtime",)
@@ -228,7 +228,7 @@ def resolve_eval_task(
     """How to simulate a dataset task: LIBERO's BDDL and stored init states when the task is
     in the registry, else the BDDL stored with the dataset (objects placed from seeds); and
     ``heldout`` held-out starts none of its demonstrations began from."""
-    from libero_bench.evaluate import EvalTask
+    from libero_bench.rollouts.jobs import EvalTask
     from libero_data.errors import LiberoDataError
     from libero_data.seeding import heldout_starts
     from libero_data.tasks import get_suite

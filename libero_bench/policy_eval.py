@@ -1,5 +1,8 @@
-"""``libero-bench eval``: a trained LeRobot policy evaluated on tasks, suites, generated suites or
-robustness variants, with the benchmark's protocol and outputs.
+"""``libero-bench eval``: a trained LeRobot policy, or a policy served elsewhere over openpi's
+websocket protocol, evaluated on tasks, suites, generated suites or robustness variants, with the
+benchmark's protocol and outputs. The policy runs once, batched over the environments
+(:mod:`libero_bench.rollouts`); ``results.json`` records how each session ran (batch size, workers,
+device, forward passes).
 
 Every task is rolled out from LIBERO's stored init states (where it has them) and from held-out
 placements (``libero_data.seeding.heldout_starts``, skipping the seeds the policy's training
@@ -21,21 +24,25 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.evaluate import EvalTask, RolloutJob, RolloutResult, make_job, worker_setup
 from libero_bench.intervals import Rate
+from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make_job
+from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.sources import PolicySource, is_server, policy_source
 from libero_bench.run_files import HELDOUT, STARTS, STORED, RunFolder
 from libero_data.errors import InputError
 from libero_data.pipeline.request import state_width
 from libero_data.runtime.files import write_json, write_text
 from libero_data.runtime.folder import WorkFolder
-from libero_data.runtime.jobs import Executor, JobRunner
 
 EVAL_FORMAT = "libero-bench-eval/1"
 
 
 @dataclass(frozen=True)
 class EvalRequest:
-    """What to evaluate: a LeRobot policy folder on tasks, from how many starts of each kind."""
+    """What to evaluate: a LeRobot policy folder or a policy server (``ws://HOST:PORT``) on
+    tasks, from how many starts of each kind. For a server, ``image_size`` is the camera size
+    sent (default: the size the server's metadata names, else 224, openpi's) and
+    ``replan_steps`` the actions executed of each chunk it returns (openpi's LIBERO client: 5)."""
 
     policy: str
     tasks: tuple[str, ...]
@@ -44,11 +51,19 @@ class EvalRequest:
     max_steps: int = 300
     settle: int = 10
     render_quality: str = "full"
+    image_size: int | None = None
+    replan_steps: int = 5
 
     def __post_init__(self) -> None:
         from libero_data.sim.env import check_render_quality
 
         check_render_quality(self.render_quality)
+        if self.replan_steps < 1:
+            raise InputError("execute at least one action of each chunk", field="replan_steps")
+        if self.image_size is not None and self.image_size < 8:
+            raise InputError(
+                f"the image size must be at least 8 pixels, got {self.image_size}", field="image_size"
+            )
         if not self.tasks:
             raise InputError("no tasks to evaluate on", field="tasks")
         for name in ("stored", "heldout"):
@@ -148,7 +163,7 @@ def evaluate_policy(
     request: EvalRequest,
     out: str | Path,
     *,
-    workers: int = 1,
+    execution: Execution | None = None,
     on_result: Callable[[RolloutResult], None] | None = None,
     on_total: Callable[[int], None] | None = None,
     heldout_seeds: Mapping[str, Sequence[int]] | None = None,
@@ -157,14 +172,12 @@ def evaluate_policy(
 
     ``heldout_seeds`` (task name -> seeds) replaces a task's own held-out placements, so that
     variants of one task are rolled out from the same placements (libero_bench.robustness)."""
-    from libero_bench.lerobot_policy import policy_config, run_lerobot_rollout, serve
     from libero_data.runtime.versions import versions
 
-    policy = Path(request.policy).resolve()
-    config = policy_config(policy)
-    inputs = serve(config.input_features, f"the {config.type} policy at {policy}")
+    execution = execution or Execution()
+    source = policy_source(request.policy, request.image_size, request.replan_steps)
     tasks = resolve_tasks(request.tasks)
-    dataset, starts = training_starts(policy)
+    dataset, starts = training_starts(Path(source.ref)) if not is_server(source.ref) else (None, {})
     eval_tasks = [
         _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1]) for i, t in enumerate(tasks)
     ]
@@ -180,9 +193,9 @@ def evaluate_policy(
     folder = RunFolder(Path(out).resolve())
     settings = {
         "format": EVAL_FORMAT,
-        "request": {**asdict(request), "policy": str(policy), "tasks": list(request.tasks)},
-        "policy_type": config.type,
-        "inputs": {k: list(v) for k, v in {**inputs.cameras, **inputs.states}.items()},
+        "request": {**asdict(request), "policy": source.ref, "tasks": list(request.tasks)},
+        "policy_type": source.policy_type,
+        "inputs": source.inputs,
         "tasks": [
             {"position": e.position, "name": e.name, "language": e.language, "bddl": e.env_ref}
             for e in eval_tasks
@@ -198,26 +211,63 @@ def evaluate_policy(
         advice="use the same command or another output folder",
     )
     results_path = folder.results
-    done = json.loads(results_path.read_text())["rollouts"] if results_path.is_file() else []
+    saved = json.loads(results_path.read_text()) if results_path.is_file() else {}
+    done = saved.get("rollouts", [])
+    sessions = saved.get("sessions", [])
     finished = {r["key"] for r in done if (folder.shard(r["key"]) / "episode.json").is_file()}
-    jobs = [j for j in _jobs(request, eval_tasks, inputs.render_size, width, folder) if j.key not in finished]
+    jobs = [j for j in _jobs(request, eval_tasks, source.render_size, width, folder) if j.key not in finished]
     records = [r for r in done if r["key"] in finished]
     if on_total:
         on_total(len(jobs) + len(records))
     WorkFolder(folder.work, "policy evaluation").clean("shards/*.tmp-*")
-    with JobRunner(Executor.processes(workers), folder.root, setup=worker_setup) as runner:
-        for i, result in runner.run(run_lerobot_rollout, jobs, shared=policy):
-            job = jobs[i]
-            records.append(_record(job, result))
-            write_json(
-                results_path, {"rollouts": records, "complete": False, "versions": versions(python=True)}
-            )
-            if on_result:
-                on_result(result)
+    if jobs:
+        session = _roll_out(source, jobs, folder, execution, records, sessions, on_result)
+        sessions.append(session)
     summary = summarize(settings, records, starts)
-    write_json(results_path, {"rollouts": records, "complete": True, "versions": versions(python=True)})
+    write_json(
+        results_path,
+        {"rollouts": records, "complete": True, "sessions": sessions, "versions": versions(python=True)},
+    )
     _finish(folder, settings, records, summary)
     return summary
+
+
+def _roll_out(
+    source: PolicySource,
+    jobs: list[RolloutJob],
+    folder: RunFolder,
+    execution: Execution,
+    records: list[dict[str, Any]],
+    sessions: list[dict[str, Any]],
+    on_result: Callable[[RolloutResult], None] | None,
+) -> dict[str, Any]:
+    """Run ``jobs``, appending each finished rollout to ``records`` (and ``results.json``); how
+    they ran (batch size, workers, device, the actor) as this session's record."""
+    from libero_data.runtime.versions import versions
+
+    actor = source.open(execution.policy_device())
+    session: dict[str, Any] = {}
+    try:
+        with execution.open(folder.root) as environments:
+            session = {**environments.describe(), **actor.describe(), "rollouts": 0}
+            for i, result in environments.run(actor, jobs):
+                records.append(_record(jobs[i], result))
+                session["rollouts"] += 1
+                write_json(
+                    folder.results,
+                    {
+                        "rollouts": records,
+                        "complete": False,
+                        "sessions": [*sessions, session],
+                        "versions": versions(python=True),
+                    },
+                )
+                if on_result:
+                    on_result(result)
+    finally:
+        actor.close()
+    session["forwards"] = actor.forwards
+    return session
 
 
 def _record(job: RolloutJob, result: RolloutResult) -> dict[str, Any]:
@@ -254,7 +304,10 @@ def summarize(
         rows.append(row)
     notes = []
     if settings["training_data"] is None:
-        notes.append("the policy folder has no train_config.json: held-out starts skip no training seed")
+        notes.append(
+            "the policy's training data is not known (a served policy, or a folder without train_config.json): "
+            "held-out starts skip no training seed"
+        )
     for task in settings["tasks"]:
         stored, _ = starts.get(task["name"], (set(), set()))
         evaluated = {

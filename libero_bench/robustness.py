@@ -40,6 +40,8 @@ class SweepRequest:
     settle: int = 10
     seed: int = 0
     render_quality: str = "full"
+    image_size: int | None = None  # a served policy: the camera size sent (libero_bench.policy_eval)
+    replan_steps: int = 5  # a served policy: actions executed of each chunk
 
     def __post_init__(self) -> None:
         from libero_data.perturb.levels import KINDS, LEVELS

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from libero_bench.robustness import Cell, SweepRequest, heldout_seeds
+from libero_bench.rollouts.loop import Execution
 from libero_data.errors import RunError
 from libero_data.pipeline.request import state_width
 
@@ -28,15 +29,15 @@ def run_outcomes(
     request: SweepRequest,
     cells: list[Cell],
     out: Path,
-    workers: int,
+    execution: Execution,
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
 ) -> tuple[dict[str, list[bool]], str]:
     """Outcomes (in rollout order) per cell name, and the policy's name for the report."""
     from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
     from libero_bench.data import DemoDataset
-    from libero_bench.evaluate import Evaluator
     from libero_bench.language import encode_tasks
+    from libero_bench.rollouts.actors import PolicyActor
     from libero_bench.run_files import RunFolder
     from libero_bench.runs import load_run
     from libero_data.runtime.files import write_json
@@ -88,10 +89,13 @@ def run_outcomes(
         if on_result:
             on_result(result)
 
-    with Evaluator(workers, out) as evaluator:
+    device = execution.policy_device()
+    with execution.open(out) as environments:
         for position, jobs in sorted(jobs_by_position.items()):
             policy, _algo = policy_from_checkpoint(config, kept_checkpoint(folder, config, last), position)
-            evaluator.run(policy, jobs, on_result=seen)
+            actor = PolicyActor(policy.to(device))
+            for _index, result in environments.run(actor, jobs):
+                seen(result)
     _join(run, out, records, live, config, request)
     outcomes: dict[str, list[bool]] = {}
     for record in sorted(records.values(), key=lambda r: (r["task"], r["rollout"])):
@@ -111,7 +115,7 @@ def _jobs(
     width: int,
 ) -> dict[int, list[Any]]:
     """The rollouts still to run, grouped by the source task's position (its evaluation view)."""
-    from libero_bench.evaluate import EvalTask, make_job
+    from libero_bench.rollouts.jobs import EvalTask, make_job
     from libero_bench.run_files import HELDOUT
 
     jobs_by_position: dict[int, list[Any]] = {}

@@ -19,6 +19,7 @@ from libero_bench.robustness import (
     table,
     write_report,
 )
+from libero_bench.rollouts.loop import Execution
 
 
 def sweep(
@@ -26,25 +27,28 @@ def sweep(
     request: SweepRequest,
     out: str | Path,
     *,
-    workers: int = 1,
+    execution: Execution | None = None,
     on_result: Callable[[Any], None] | None = None,
     on_total: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
-    """Run the sweep for ``policy`` (a libero-bench run folder or a LeRobot policy folder)."""
+    """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
+    policy server, ``ws://HOST:PORT``)."""
+    from libero_bench.rollouts.sources import is_server
     from libero_bench.run_files import RunFolder
     from libero_data.runtime.versions import versions
 
+    execution = execution or Execution()
     out = Path(out).resolve()
-    policy = Path(policy).resolve()
+    ref = str(policy) if is_server(str(policy)) else str(Path(policy).resolve())
     cells = make_cells(request, out / VARIANTS)
-    if RunFolder(policy).is_run():
+    if not is_server(ref) and RunFolder(Path(ref)).is_run():
         from libero_bench.robustness_run import run_outcomes
 
-        outcomes, name = run_outcomes(policy, request, cells, out, workers, on_result, on_total)
+        outcomes, name = run_outcomes(Path(ref), request, cells, out, execution, on_result, on_total)
     else:
-        outcomes, name = _lerobot_outcomes(policy, request, cells, out, workers, on_result, on_total)
+        outcomes, name = _lerobot_outcomes(ref, request, cells, out, execution, on_result, on_total)
     summary = {
-        "policy": str(policy),
+        "policy": ref,
         "policy_name": name,
         "request": dataclasses.asdict(request),
         "versions": versions(),
@@ -55,33 +59,36 @@ def sweep(
 
 
 def _lerobot_outcomes(
-    policy: Path,
+    policy: str,
     request: SweepRequest,
     cells: list[Cell],
     out: Path,
-    workers: int,
+    execution: Execution,
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
 ) -> tuple[dict[str, list[bool]], str]:
-    """Outcomes per cell of a LeRobot policy (``libero-bench eval`` on the variants suite)."""
-    from libero_bench.lerobot_policy import policy_config
+    """Outcomes per cell of a LeRobot policy or a served one (``libero-bench eval`` on the
+    variants suite)."""
     from libero_bench.policy_eval import EvalRequest, evaluate_policy, training_starts
+    from libero_bench.rollouts.sources import is_server
 
-    _, starts = training_starts(policy)
+    _, starts = training_starts(Path(policy)) if not is_server(policy) else (None, {})
     seeds = heldout_seeds(request, {name: s[1] for name, s in starts.items()})
     by_name = {c.name: seeds[c.source] for c in cells if not c.reason}
-    evaluate_policy(
+    summary = evaluate_policy(
         EvalRequest(
-            str(policy),
+            policy,
             (str(out / VARIANTS),),
             stored=0,
             heldout=request.rollouts,
             max_steps=request.max_steps,
             settle=request.settle,
             render_quality=request.render_quality,
+            image_size=request.image_size,
+            replan_steps=request.replan_steps,
         ),
         out / "eval",
-        workers=workers,
+        execution=execution,
         on_result=on_result,
         on_total=on_total,
         heldout_seeds=by_name,
@@ -90,4 +97,4 @@ def _lerobot_outcomes(
     outcomes: dict[str, list[bool]] = {}
     for r in sorted(records, key=lambda r: (r["task"], r["rollout"])):
         outcomes.setdefault(r["task"], []).append(bool(r["success"]))
-    return outcomes, f"{policy_config(policy).type} policy"
+    return outcomes, f"{summary['policy_type']} policy"

@@ -1,7 +1,7 @@
 """The rollout dataset of a run: every evaluation rollout joined into one LeRobot dataset.
 
 Each rollout was written as a one-episode shard by the job that ran it
-(:func:`libero_bench.evaluate.run_rollout`); :func:`build_rollout_dataset` joins them, in
+(:mod:`libero_bench.rollouts.episodes`); :func:`build_rollout_dataset` joins them, in
 rollout-key order, with the card below. ``datasets.load_dataset`` reads the result.
 """
 
@@ -16,8 +16,8 @@ from libero_bench.run_files import RunFolder, RunResults
 from libero_data.errors import RunError
 
 if TYPE_CHECKING:
-    from libero_bench.evaluate import EvalTask
     from libero_bench.plan import RunPlan
+    from libero_bench.rollouts.jobs import EvalTask
 
 ROLLOUT_CARD = """---
 license: mit

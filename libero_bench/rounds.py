@@ -3,7 +3,7 @@
 A round rolls the current policy out on some of the run's tasks (``eval_rollouts`` each from
 LIBERO's stored init states and ``eval_heldout`` from held-out placements) in one phase: while learning a task (``learning``, at an epoch), after PackNet's
 pruning (``pruned``), or with the checkpoint kept after a later task (``after``). Every rollout
-is stored (:mod:`libero_bench.evaluate`) and listed in ``results.rollouts``; the round returns
+is stored (:mod:`libero_bench.rollouts.episodes`) and listed in ``results.rollouts``; the round returns
 each task's success rate from each kind of start.
 """
 
@@ -16,15 +16,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from libero_bench import evaluate
 from libero_bench.plan import RunPlan, resolve_eval_task
+from libero_bench.rollouts.jobs import make_job
 from libero_bench.run_files import HELDOUT, LEARNING, STARTS, STORED, RunFolder, RunResults, rollout_key
 
 if TYPE_CHECKING:
     from libero_bench.algos import Algo
-    from libero_bench.evaluate import EvalTask, Evaluator, RolloutJob, RolloutResult
+    from libero_bench.evaluate import Evaluator
     from libero_bench.observer import RunObserver
     from libero_bench.policies import Policy
+    from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult
 
 logger = logging.getLogger(__name__)
 
@@ -61,7 +62,7 @@ class EvaluationRounds:
             for r in range(counts[start]):
                 key = rollout_key(learned_after, phase, pos, r, epoch, start)
                 jobs.append(
-                    evaluate.make_job(
+                    make_job(
                         tasks[pos],
                         r,
                         key=key,

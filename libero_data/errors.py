@@ -90,5 +90,9 @@ class ExecutorError(InputError):
     """The chosen way of running jobs (processes, Ray, a cluster address) is not available."""
 
 
+class PolicyServerError(LiberoDataError, ConnectionError):
+    """A policy server cannot be reached, answers with an error, too late or not at all."""
+
+
 class RunError(LiberoDataError, ValueError):
     """A benchmark run cannot go on (a run folder of another run, a missing rollout, ...)."""

@@ -19,6 +19,7 @@ a loader's epoch                       ``loader_epoch_seed(loader seed, epoch)``
 evaluation rollout ``r``, stored start ``rollout_start(r, stored init states)``
 evaluation rollout ``r``, held out     ``heldout_starts(task key, n, avoid)[r]``
 a sampler start's arm pose             ``arm_noise_rng(reset seed)``
+a sampling policy's noise (evaluation) ``policy_noise_seed(rollout key, chunk)``
 =====================================  ============================================================
 
 An episode's two seeds are a *reset seed* (LIBERO places fixtures, and objects where no
@@ -109,6 +110,13 @@ def rollout_start(rollout: int, stored: int) -> tuple[int, int]:
     ``stored`` init states; index -1 where there are none (objects placed from the seed).
     The same for every epoch and checkpoint, so evaluations compare like with like."""
     return (rollout % stored if stored > 0 else -1), rollout
+
+
+def policy_noise_seed(rollout_key: str, chunk: int) -> int:
+    """The seed of the noise a sampling policy (Diffusion Policy) draws for action chunk ``chunk``
+    of one evaluation rollout: a rollout's actions then do not depend on which other rollouts
+    shared its batch."""
+    return int(np.random.SeedSequence([stable_hash(rollout_key), chunk]).generate_state(1)[0])
 
 
 def heldout_seed(task_key: str, index: int) -> int:

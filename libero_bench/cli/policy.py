@@ -1,4 +1,5 @@
-"""``libero-bench eval``: a LeRobot policy (from lerobot-train) evaluated in our simulator."""
+"""``libero-bench eval``: a LeRobot policy (from lerobot-train) or a served one evaluated in our
+simulator; ``libero-bench serve``: our policies and LeRobot's behind openpi's websocket protocol."""
 
 from __future__ import annotations
 
@@ -7,7 +8,18 @@ from typing import Annotated
 
 import typer
 
+from libero_bench.cli.options import (
+    BatchSize,
+    Device,
+    EnvWorkers,
+    ReplanSteps,
+    SentImageSize,
+    Server,
+    policy_or_server,
+)
 from libero_data.cli.common import (
+    ExecutorKind,
+    RayAddress,
     RenderQuality,
     quiet_environment,
     rollout_progress,
@@ -20,20 +32,23 @@ from libero_data.cli.common import (
 @user_errors
 def eval_cmd(
     policy: Annotated[
-        Path, typer.Argument(help="A LeRobot policy: the pretrained_model/ folder lerobot-train writes.")
-    ],
+        Path | None,
+        typer.Argument(
+            help="A LeRobot policy: the pretrained_model/ folder lerobot-train writes (or --server)."
+        ),
+    ] = None,
     tasks: Annotated[
-        list[str],
+        list[str] | None,
         typer.Option(
             "--tasks",
             "-t",
             help="Tasks (libero_object/0, suite/name, a .bddl file), suites (libero_object) or suite folders "
             "made by libero-data (procedural tasks, variants); repeat or comma-separate.",
         ),
-    ],
+    ] = None,
     out: Annotated[
-        Path, typer.Option("--out", "-o", help="Evaluation folder (created; an existing one resumes).")
-    ],
+        Path | None, typer.Option("--out", "-o", help="Evaluation folder (created; an existing one resumes).")
+    ] = None,
     stored: Annotated[
         int, typer.Option("--stored", help="Rollouts per task from LIBERO's stored init states.", min=0)
     ] = 20,
@@ -48,23 +63,100 @@ def eval_cmd(
     max_steps: Annotated[
         int, typer.Option("--max-steps", help="Steps before a rollout is cut.", min=1)
     ] = 300,
-    workers: Annotated[int, typer.Option("--workers", "-w", help="Parallel rollout processes.", min=1)] = 1,
+    server: Server = None,
+    device: Device = None,
+    workers: EnvWorkers = 1,
+    batch_size: BatchSize = None,
+    executor: ExecutorKind = "local",
+    ray_address: RayAddress = None,
+    image_size: SentImageSize = None,
+    replan_steps: ReplanSteps = 5,
     render_quality: RenderQuality = "full",
 ) -> None:
-    """Evaluate a LeRobot policy (ACT, Diffusion Policy, ...) in simulation: every rollout stored, success with intervals.
+    """Evaluate a LeRobot policy (ACT, Diffusion Policy, SmolVLA, ...) or a served one (--server) in
+    simulation: every rollout stored, success with intervals.
 
-    The policy's inputs are served from its declared features (either camera naming, any image size, the 8-D
-    state) and its own pre- and post-processors run as in lerobot-eval.
+    The policy runs once, on --device, batched over --batch-size environments that step in --workers
+    processes (or Ray actors with --executor ray). A policy folder's inputs are served from its declared
+    features (either camera naming, any image size, the 8-D state) and its own pre- and post-processors
+    run as in lerobot-eval. A server gets openpi's LIBERO observation (observation/image,
+    observation/wrist_image, observation/state, prompt) and its action chunks are executed
+    --replan-steps at a time.
     """
     quiet_environment()
     from libero_bench.policy_eval import EvalRequest, evaluate_policy, markdown
+    from libero_bench.rollouts.loop import Execution
+    from libero_data.errors import InputError
 
+    if not tasks:
+        raise InputError("name the tasks to evaluate on", field="tasks")
+    if out is None:
+        raise InputError("name the evaluation folder", field="out")
     request = EvalRequest(
-        str(policy), tuple(split_list(tasks)), stored, heldout, max_steps, render_quality=render_quality
+        policy_or_server(policy, server),
+        tuple(split_list(tasks)),
+        stored,
+        heldout,
+        max_steps,
+        render_quality=render_quality,
+        image_size=image_size,
+        replan_steps=replan_steps,
     )
+    execution = Execution(workers, batch_size, executor, ray_address, device)
     with rollout_progress() as (done, total):
-        summary = evaluate_policy(request, out, workers=workers, on_result=done, on_total=total)
+        summary = evaluate_policy(request, out, execution=execution, on_result=done, on_total=total)
     say(markdown(summary))
     say(
         f"wrote {out / 'report.md'}, {out / 'report.json'}, {out / 'success.png'}, the rollouts in {out / 'rollouts'}"
     )
+
+
+@user_errors
+def serve_cmd(
+    policy: Annotated[
+        Path,
+        typer.Argument(
+            help="A libero-bench run folder (its final checkpoint) or a LeRobot pretrained_model/ folder."
+        ),
+    ],
+    port: Annotated[int, typer.Option("--port", "-p", help="Port to listen on.", min=1, max=65535)] = 8000,
+    host: Annotated[
+        str, typer.Option("--host", help="Address to listen on (0.0.0.0: every interface of this machine).")
+    ] = "127.0.0.1",
+    device: Device = None,
+    view_task: Annotated[
+        int | None,
+        typer.Option(
+            "--view-task",
+            help="A run: the task whose evaluation view serves (PackNet's masks; default: the last it learned).",
+            min=0,
+        ),
+    ] = None,
+) -> None:
+    """Serve a policy over openpi's websocket protocol (msgpack, nothing unpickled), so that a GPU machine
+    serves while others roll out (libero-bench eval --server ws://HOST:PORT).
+
+    Each connection is one episode; requests that arrive together, from any number of connections, go
+    through one batched forward pass. Each reply holds the one action the policy takes now. Stop with Ctrl-C.
+    """
+    quiet_environment()
+    import asyncio
+
+    from libero_bench.rollouts.actors import default_device
+    from libero_bench.rollouts.server import PolicyServer, served_policy
+
+    chosen = device or default_device()
+    actor, metadata, embed, size = served_policy(str(policy), chosen, view_task)
+    server = PolicyServer(actor, metadata, embed=embed, image_size=size)
+    ready = lambda: say(  # noqa: E731
+        f"serving the {metadata['policy_type']} policy on {chosen} at ws://{host}:{port} "
+        f"(camera images of {metadata['image_size']} px); Ctrl-C stops"
+    )
+    try:
+        asyncio.run(server.serve(host, port, ready=ready))
+    except OSError as exc:
+        from libero_data.errors import InputError
+
+        raise InputError(f"cannot listen on {host}:{port}: {exc.strerror or exc}", field="port") from None
+    finally:
+        actor.close()

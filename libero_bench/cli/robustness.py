@@ -7,7 +7,18 @@ from typing import Annotated
 
 import typer
 
+from libero_bench.cli.options import (
+    BatchSize,
+    Device,
+    EnvWorkers,
+    ReplanSteps,
+    SentImageSize,
+    Server,
+    policy_or_server,
+)
 from libero_data.cli.common import (
+    ExecutorKind,
+    RayAddress,
     RenderQuality,
     quiet_environment,
     rollout_progress,
@@ -20,20 +31,21 @@ from libero_data.cli.common import (
 @user_errors
 def robustness_cmd(
     policy: Annotated[
-        Path,
+        Path | None,
         typer.Argument(
-            help="A libero-bench run folder (its final checkpoint) or a LeRobot pretrained_model/ folder."
+            help="A libero-bench run folder (its final checkpoint) or a LeRobot pretrained_model/ folder "
+            "(or --server)."
         ),
-    ],
+    ] = None,
     tasks: Annotated[
-        list[str],
+        list[str] | None,
         typer.Option(
             "--tasks", "-t", help="Source tasks (libero_object/0, suite/name); repeat or comma-separate."
         ),
-    ],
+    ] = None,
     out: Annotated[
-        Path, typer.Option("--out", "-o", help="Sweep folder (created; an existing one resumes).")
-    ],
+        Path | None, typer.Option("--out", "-o", help="Sweep folder (created; an existing one resumes).")
+    ] = None,
     kinds: Annotated[
         list[str] | None,
         typer.Option(
@@ -54,21 +66,36 @@ def robustness_cmd(
     seed: Annotated[
         int, typer.Option("--seed", help="Seed of the variants (which values each level draws).")
     ] = 0,
-    workers: Annotated[int, typer.Option("--workers", "-w", help="Parallel rollout processes.", min=0)] = 1,
+    server: Server = None,
+    device: Device = None,
+    workers: EnvWorkers = 1,
+    batch_size: BatchSize = None,
+    executor: ExecutorKind = "local",
+    ray_address: RayAddress = None,
+    image_size: SentImageSize = None,
+    replan_steps: ReplanSteps = 5,
     render_quality: RenderQuality = "full",
 ) -> None:
     """Evaluate a policy on its tasks perturbed along kinds x levels: a table and a heatmap of success with
     95% intervals, the drop from the unperturbed tasks, and every rollout stored.
 
     Every cell starts from the same held-out placements of its source task, so kinds that keep the scene
-    (camera, lighting, texture, noise, robot start, language) are compared start for start.
+    (camera, lighting, texture, noise, robot start, language) are compared start for start. The policy runs
+    once, on --device, batched over --batch-size environments stepped by --workers processes; --server
+    evaluates a served policy (see libero-bench eval --help).
     """
     quiet_environment()
     from libero_bench.robustness import REPORT, SweepRequest
     from libero_bench.robustness_sweep import sweep
+    from libero_bench.rollouts.loop import Execution
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS
 
+    if not tasks:
+        raise InputError("name the source tasks to perturb", field="tasks")
+    if out is None:
+        raise InputError("name the sweep folder", field="out")
+    reference = policy_or_server(policy, server)
     chosen_levels = []
     for value in split_list(levels) or ["1", "2", "3", "4", "5"]:
         if not value.isdigit():
@@ -82,8 +109,11 @@ def robustness_cmd(
         max_steps=max_steps,
         seed=seed,
         render_quality=render_quality,
+        image_size=image_size,
+        replan_steps=replan_steps,
     )
+    execution = Execution(workers, batch_size, executor, ray_address, device)
     with rollout_progress() as (done, total):
-        sweep(policy, request, out, workers=workers, on_result=done, on_total=total)
+        sweep(reference, request, out, execution=execution, on_result=done, on_total=total)
     say((out / f"{REPORT}.md").read_text())
     say(f"wrote {out / f'{REPORT}.md'}, {out / f'{REPORT}.json'}, {out / f'{REPORT}.png'}")

@@ -59,7 +59,7 @@ def run_cmd(
     ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Run seed; default: the preset's.")] = None,
     device: Annotated[
-        str, typer.Option("--device", help="cpu or cuda (training; rollouts run on CPU workers).")
+        str, typer.Option("--device", help="cpu or cuda: training, and the policy in evaluation rounds.")
     ] = "cpu",
     workers: Annotated[
         int, typer.Option("--workers", help="Rollout worker processes (0: in this process).", min=0)

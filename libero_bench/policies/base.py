@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from typing import ClassVar, Self
+from typing import Any, ClassVar, Self
 
 import torch
 from torch import Tensor, nn
@@ -157,6 +157,24 @@ class Policy(nn.Module):
                 raise ValueError(f"act_step takes one frame (T = 1), got T = {batch[AGENTVIEW].shape[1]}")
             return gmm_mode_mean(self.head(self.temporal_step(self.encode_frames(batch))))
 
+    def temporal_rows(self, frames: Tensor, history: list[Any]) -> tuple[Tensor, list[Any]]:
+        """Features (B, D) of one new frame per row (B, 1, ...), each row with its own history
+        (``None``: a new episode); returns the rows' histories with the new frame."""
+        raise NotImplementedError
+
+    @torch.no_grad()
+    def act_rows(self, batch: Batch, history: list[Any]) -> tuple[Tensor, list[Any]]:
+        """Actions (B, A) for one new frame per row, row ``i`` continuing ``history[i]`` (``None``:
+        a new episode), in one pass; returns the new histories. Row ``i`` is what ``act_step``
+        gives that row's episode alone, so environments can start and end at different steps
+        while they share the batch (up to the last bits a batched matrix product may change)."""
+        with eval_mode(self):
+            self.check_batch(batch)
+            if batch[AGENTVIEW].shape[1] != 1 or len(history) != batch[AGENTVIEW].shape[0]:
+                raise ValueError("act_rows takes one frame (T = 1) and one history per row")
+            features, history = self.temporal_rows(self.encode_frames(batch), history)
+            return gmm_mode_mean(self.head(features)), history
+
 
 class TokenPolicy(Policy):
     """Shared temporal part of ResNet-T and ViT-T: frames are token sets (B, T, K, D) and a
@@ -181,6 +199,23 @@ class TokenPolicy(Policy):
 
     def reset(self) -> None:
         self._queue = []
+
+    def temporal_rows(self, frames: Tensor, history: list[Any]) -> tuple[Tensor, list[Any]]:
+        # A row's history is its last ``window`` frames' tokens; rows of equal history length
+        # share one pass of the temporal transformer (all of them, once every episode is
+        # ``window`` steps old).
+        window = self.config.window
+        kept = [[*(h or []), frames[i : i + 1]][-window:] for i, h in enumerate(history)]
+        rows_by_length: dict[int, list[int]] = {}
+        for i, h in enumerate(kept):
+            rows_by_length.setdefault(len(h), []).append(i)
+        parts: dict[int, Tensor] = {}
+        for rows in rows_by_length.values():
+            x = torch.cat([torch.cat(kept[i], dim=1) for i in rows], dim=0)
+            y = self.temporal_transformer(x)[:, -1]
+            parts.update({i: y[j] for j, i in enumerate(rows)})
+        out = torch.stack([parts[i] for i in range(len(kept))])
+        return out, kept
 
 
 POLICIES: Registry[type[Policy]] = Registry("policy")

@@ -161,7 +161,7 @@ def die_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
 
 
-def _become_worker(events: Any, setup: Callable[[], None] | None) -> None:
+def become_worker(events: Any, setup: Callable[[], None] | None) -> None:
     """Initialise a worker process (a pool's initializer; once per Ray worker process)."""
     from libero_data.runtime.memory import limit_malloc_arenas
 
@@ -177,7 +177,7 @@ def _become_worker(events: Any, setup: Callable[[], None] | None) -> None:
 
 def _init_process(events: Any, setup: Callable[[], None] | None) -> None:
     die_with_parent()
-    _become_worker(events, setup)
+    become_worker(events, setup)
 
 
 def _process_call(
@@ -206,7 +206,7 @@ def _ray_call(
 
     global _SHARED_DIR
     if _WORKER is None:
-        _become_worker(None, setup)
+        become_worker(None, setup)
     assert _WORKER is not None
     shared_path = None
     if shared is not None:

@@ -14,8 +14,8 @@ import torch
 
 from libero_bench import evaluate
 from libero_bench.algos import ALGOS
-from libero_bench.evaluate import RolloutJob, RolloutResult
 from libero_bench.presets import SMOKE
+from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
 from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
 
 pytestmark = pytest.mark.sim  # needs the generated tiny dataset (no simulation runs here)

@@ -28,3 +28,29 @@ def fail_on_three(ctx: WorkerContext, n: int) -> int:
     if n == 3:
         raise ArithmeticError(f"job {n} failed")
     return n
+
+
+class Counter:
+    """An actor for the actor pool's tests: counts, writes a file, fails or dies on request."""
+
+    def __init__(self, ctx: WorkerContext) -> None:
+        self.ctx = ctx
+        self.total = 0
+
+    def add(self, n: int) -> dict[str, int]:
+        self.total += n
+        out = self.ctx.root / "out" / f"{os.getpid()}-{self.total}.txt"
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(str(self.total))
+        self.ctx.ship(str(out.relative_to(self.ctx.root)))
+        return {"pid": os.getpid(), "total": self.total}
+
+    def fail(self) -> None:
+        raise ArithmeticError("asked to fail")
+
+    def die(self) -> None:
+        os._exit(3)
+
+
+def make_counter(ctx: WorkerContext) -> Counter:
+    return Counter(ctx)

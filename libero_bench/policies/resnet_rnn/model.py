@@ -3,6 +3,8 @@ embedding per frame, an LSTM over the window, and a GMM head."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import torch
 from torch import Tensor, nn
 
@@ -81,6 +83,15 @@ class ResNetRNN(Policy):
 
     def reset(self) -> None:
         self._state = None
+
+    def temporal_rows(self, frames: Tensor, history: list[Any]) -> tuple[Tensor, list[Any]]:
+        # A row's history is its LSTM state; a new episode's is zero, as in temporal_step.
+        layers, hidden = self.rnn.num_layers, self.rnn.hidden_size
+        zero = frames.new_zeros((layers, 1, hidden))
+        h = torch.cat([zero if s is None else s[0] for s in history], dim=1)
+        c = torch.cat([zero if s is None else s[1] for s in history], dim=1)
+        output, (h, c) = self.rnn(frames, (h, c))
+        return output[:, -1], [(h[:, i : i + 1], c[:, i : i + 1]) for i in range(frames.shape[0])]
 
     def visual_latent(self, images: Tensor, task_emb: Tensor) -> Tensor:
         return self.image_encoders[AGENTVIEW](images, task_emb)

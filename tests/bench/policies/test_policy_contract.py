@@ -85,6 +85,32 @@ def test_act_is_deterministic_and_matches_step_by_step(name: str, make_batch: Ba
 
 
 @pytest.mark.parametrize("name", POLICIES.names())
+def test_rows_of_one_batch_keep_their_own_episodes(name: str, make_batch: BatchFactory) -> None:
+    """act_rows: three episodes share a batch but start at different steps (row 1 starts anew at
+    step 3, as an environment that finished and took its next start); each row's actions are
+    what act_step gives that episode alone."""
+    policy = small(name, window=3) if name != "resnet_rnn" else small(name)
+    frames = make_batch(batch_size=3, window=7, seed=4)
+    frame = lambda t, rows: {k: (v[rows, t : t + 1] if v.dim() > 2 else v[rows]) for k, v in frames.items()}  # noqa: E731
+    history: list[object] = [None, None, None]
+    batched = []
+    for t in range(7):
+        if t == 3:
+            history[1] = None
+        actions, history = policy.act_rows(frame(t, [0, 1, 2]), history)
+        batched.append(actions)
+    for row in range(3):
+        policy.reset()
+        for t in range(7):
+            if row == 1 and t == 3:
+                policy.reset()
+            alone = policy.act_step(frame(t, [row]))
+            torch.testing.assert_close(batched[t][row : row + 1], alone, rtol=1e-4, atol=1e-5)
+    with pytest.raises(ValueError, match="one history per row"):
+        policy.act_rows(frame(0, [0, 1]), [None])
+
+
+@pytest.mark.parametrize("name", POLICIES.names())
 def test_outputs_are_causal_in_time(name: str, make_batch: BatchFactory) -> None:
     policy = small(name).eval()
     batch = make_batch(window=4)

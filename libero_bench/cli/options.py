@@ -1,0 +1,73 @@
+"""Options the commands that roll a policy out share (eval, robustness): where the policy runs,
+how many environments step at once, and a policy server's observation mapping."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+Device = Annotated[
+    str | None,
+    typer.Option(
+        "--device",
+        help="Where the policy runs, once for all environments: cpu, cuda or mps (default: cuda where "
+        "available, then mps, else cpu).",
+    ),
+]
+EnvWorkers = Annotated[
+    int,
+    typer.Option(
+        "--workers",
+        "-w",
+        help="Worker processes that step the environments (physics and rendering); 0: in this process.",
+        min=0,
+    ),
+]
+BatchSize = Annotated[
+    int | None,
+    typer.Option(
+        "--batch-size",
+        "-b",
+        help="Environments stepped at once: each control step their observations go through one batched "
+        "forward pass (default: one per worker).",
+        min=1,
+    ),
+]
+Server = Annotated[
+    str | None,
+    typer.Option(
+        "--server",
+        help="Evaluate a policy served over openpi's websocket protocol at ws://HOST:PORT (openpi's "
+        "serve_policy.py, libero-bench serve, ...) instead of a policy folder.",
+    ),
+]
+SentImageSize = Annotated[
+    int | None,
+    typer.Option(
+        "--image-size",
+        help="With --server: camera images sent, resized with padding to this square size (default: the "
+        "size the server's metadata names, else 224 as openpi's LIBERO client).",
+        min=8,
+    ),
+]
+ReplanSteps = Annotated[
+    int,
+    typer.Option(
+        "--replan-steps",
+        help="With --server: actions executed of each chunk the server returns before asking again "
+        "(openpi's LIBERO client: 5).",
+        min=1,
+    ),
+]
+
+
+def policy_or_server(policy: object, server: str | None) -> str:
+    """The policy reference of a command that takes a folder or ``--server``, exactly one of them."""
+    from libero_data.errors import InputError
+
+    if (policy is None) == (server is None):
+        raise InputError("give a policy folder or --server ws://HOST:PORT, not both and not neither")
+    if server is not None and not server.startswith(("ws://", "wss://")):
+        raise InputError(f"--server takes a websocket address such as ws://HOST:PORT, got {server!r}")
+    return str(server if server is not None else policy)

@@ -1,0 +1,157 @@
+"""The driver's loop: jobs onto environment slots, one batched policy call per control step.
+
+:class:`Environments` holds ``batch_size`` environment slots spread over the workers of an
+:class:`~libero_data.runtime.actors.ActorPool` (worker processes, Ray actors, or this process);
+:meth:`Environments.run` rolls a :class:`~libero_bench.rollouts.actors.BatchActor` out on a list of
+jobs. Each control step the actor is asked once, for every running slot; then every worker steps
+its slots and starts the next jobs on the free ones, all workers at once. An episode that ends
+frees its slot for the next job while the others go on.
+
+What a rollout does depends on its job only: its start (task, kind of start, rollout index) is
+fixed by the job, whatever the batch size, the number of workers or the order in which episodes
+end. What may still differ with the batch size is the last bits of the policy's outputs (a
+batched matrix product may sum in another order), which a contact-rich episode can amplify.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from libero_bench.rollouts.actors import Start
+from libero_data.runtime.jobs import Executor
+
+if TYPE_CHECKING:
+    from libero_bench.rollouts.actors import BatchActor
+    from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
+    from libero_data.runtime.actors import ActorPool
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How an evaluation runs: ``workers`` processes hosting the environments (0: this process)
+    or Ray actors (``executor="ray"``, on the cluster at ``ray_address`` or one started here),
+    ``batch_size`` environments at once (default: one per worker), the policy on ``device``
+    (default: cuda where available, then mps, else cpu)."""
+
+    workers: int = 1
+    batch_size: int | None = None
+    executor: str = "local"
+    ray_address: str | None = None
+    device: str | None = None
+
+    def __post_init__(self) -> None:
+        from libero_data.errors import InputError
+
+        Executor(self.executor, self.workers, self.ray_address)  # validates the three
+        if self.batch_size is not None and self.batch_size < 1:
+            raise InputError(f"the batch size must be at least 1, got {self.batch_size}", field="batch_size")
+        if self.device is not None and self.device.split(":")[0] not in ("cpu", "cuda", "mps"):
+            raise InputError(f"unknown device {self.device!r}; choose cpu, cuda or mps", field="device")
+
+    @property
+    def environments(self) -> int:
+        """How many environments run at once (the policy's batch)."""
+        return self.batch_size or max(self.workers, 1)
+
+    def policy_device(self) -> str:
+        from libero_bench.rollouts.actors import default_device
+
+        return self.device or default_device()
+
+    def open(self, root: Path) -> Environments:
+        """The environments, under ``root`` (a context manager)."""
+        return Environments(Executor(self.executor, self.workers, self.ray_address), root, self.environments)
+
+
+class Environments:
+    """``batch_size`` environment slots in the workers of ``executor`` (a context manager; the
+    workers and their environments live until it closes, across calls of :meth:`run`)."""
+
+    def __init__(self, executor: Executor, root: Path, batch_size: int) -> None:
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be at least 1, got {batch_size}")
+        workers = min(executor.workers, batch_size) if executor.kind == "local" else executor.workers
+        self.executor = Executor(executor.kind, workers, executor.ray_address)
+        self.root = Path(root)
+        self.batch_size = batch_size
+        self._pool: ActorPool | None = None
+
+    def __enter__(self) -> Environments:
+        return self
+
+    def __exit__(self, kind: object, error: object, tb: object) -> None:
+        self.close(abort=error is not None)
+
+    def close(self, *, abort: bool = False) -> None:
+        if self._pool is not None:
+            pool, self._pool = self._pool, None
+            pool.close(abort=abort)
+
+    def pool(self) -> ActorPool:
+        if self._pool is None:
+            from libero_bench.rollouts.episodes import make_host
+            from libero_data.runtime.actors import ActorPool
+
+            self._pool = ActorPool(self.executor, self.root, make_host)
+        return self._pool
+
+    def worker_pids(self) -> list[int]:
+        return self._pool.worker_pids() if self._pool is not None else []
+
+    def describe(self) -> dict[str, Any]:
+        """How the rollouts ran (recorded in results)."""
+        return {
+            "batch_size": self.batch_size,
+            "executor": self.executor.kind,
+            "workers": self.executor.workers,
+        }
+
+    def run(self, actor: BatchActor, jobs: Sequence[RolloutJob]) -> Iterator[tuple[int, RolloutResult]]:
+        """Roll ``actor`` out on ``jobs``; yields ``(index, result)`` as episodes end."""
+        if not jobs:
+            return
+        pool = self.pool()
+        owner = [slot % pool.size for slot in range(self.batch_size)]
+        todo = deque(range(len(jobs)))
+        free = deque(range(self.batch_size))
+        running: dict[int, int] = {}  # slot -> job index
+        observations: dict[int, Any] = {}
+        try:
+            while todo or running:
+                actions = actor.act(observations) if observations else {}
+                starts: dict[int, int] = {}
+                while todo and free:
+                    slot, index = free.popleft(), todo.popleft()
+                    job = jobs[index]
+                    actor.begin(slot, Start(job.key, job.language, job.task_emb))
+                    starts[slot] = index
+                calls = {}
+                for worker in sorted({owner[s] for s in [*starts, *actions]}):
+                    mine_starts = {s: jobs[i] for s, i in starts.items() if owner[s] == worker}
+                    mine_actions = {s: a for s, a in actions.items() if owner[s] == worker}
+                    calls[worker] = ("advance", (mine_starts, mine_actions))
+                running.update(starts)
+                ended = []
+                for replies in pool.call(calls).values():
+                    for slot, (obs, result) in replies.items():
+                        if result is None:
+                            observations[slot] = obs
+                            continue
+                        ended.append((slot, result))
+                for slot, result in sorted(ended, key=lambda e: e[0]):
+                    index = running.pop(slot)
+                    observations.pop(slot, None)
+                    actor.end(slot)
+                    free.append(slot)
+                    yield index, result
+        except GeneratorExit:
+            if running:  # the caller stopped early: the workers forget the episodes in hand
+                pool.call({w: ("abandon", ()) for w in sorted(set(owner))})
+            raise

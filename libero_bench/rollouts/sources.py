@@ -1,0 +1,64 @@
+"""What an evaluation rolls out: a LeRobot policy folder, loaded here, or a policy served
+elsewhere (``ws://HOST:PORT``), and how each is opened as a batch actor."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from libero_bench.rollouts.actors import BatchActor
+
+SERVER_SCHEMES = ("ws://", "wss://")
+
+
+def is_server(policy: str) -> bool:
+    """Whether ``policy`` names a policy server (``ws://HOST:PORT``) rather than a folder."""
+    return policy.startswith(SERVER_SCHEMES)
+
+
+@dataclass(frozen=True)
+class PolicySource:
+    """What is evaluated and how its inputs are made: its name and type for the report, the
+    camera size to render at, what each input reads, and how to open the actor."""
+
+    ref: str
+    policy_type: str
+    render_size: int
+    inputs: dict[str, Any]
+    open: Callable[[str], BatchActor]
+
+
+def policy_source(policy: str, image_size: int | None = None, replan_steps: int = 5) -> PolicySource:
+    """``policy``: a LeRobot folder (read now, loaded when rollouts start) or a server (reached
+    now: an unreachable one is one sentence before any rollout); for a server, the image size
+    sent and the actions executed of each chunk (``libero_bench.policy_eval.EvalRequest``)."""
+    if is_server(policy):
+        from libero_bench.rollouts.remote import RemoteActor, connect
+
+        connection, metadata = connect(policy, timeout=30.0)
+        connection.close()
+        served = metadata.get("image_size")
+        size = image_size or (int(served) if isinstance(served, int) else 224)
+        render = int(served) if isinstance(served, int) else max(size, 256)
+        return PolicySource(
+            policy,
+            str(metadata.get("policy_type", "served")),
+            render,
+            {"server": policy, "image_size": size, "replan_steps": replan_steps},
+            lambda _device: RemoteActor(policy, image_size=size, replan_steps=replan_steps),
+        )
+    from libero_bench.lerobot_policy import policy_config, serve
+    from libero_bench.rollouts.lerobot_actor import LeRobotActor
+
+    folder = Path(policy).resolve()
+    config = policy_config(folder)
+    inputs = serve(config.input_features, f"the {config.type} policy at {folder}")
+    return PolicySource(
+        str(folder),
+        config.type,
+        inputs.render_size,
+        {k: list(v) for k, v in {**inputs.cameras, **inputs.states}.items()},
+        lambda device: LeRobotActor(folder, device),
+    )
