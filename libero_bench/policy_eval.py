@@ -167,15 +167,17 @@ def evaluate_policy(
     on_result: Callable[[RolloutResult], None] | None = None,
     on_total: Callable[[int], None] | None = None,
     heldout_seeds: Mapping[str, Sequence[int]] | None = None,
+    source: PolicySource | None = None,
 ) -> dict[str, Any]:
     """Evaluate (or go on evaluating) the policy into ``out``; returns the summary.
 
     ``heldout_seeds`` (task name -> seeds) replaces a task's own held-out placements, so that
-    variants of one task are rolled out from the same placements (libero_bench.robustness)."""
+    variants of one task are rolled out from the same placements (libero_bench.robustness);
+    ``source`` is the request's policy when the caller has opened it already (``policy_source``)."""
     from libero_data.runtime.versions import versions
 
     execution = execution or Execution()
-    source = policy_source(request.policy, request.image_size, request.replan_steps)
+    source = source or policy_source(request.policy, request.image_size, request.replan_steps)
     tasks = resolve_tasks(request.tasks)
     dataset, starts = training_starts(Path(source.ref)) if not is_server(source.ref) else (None, {})
     eval_tasks = [
@@ -386,8 +388,9 @@ def _chart(summary: dict[str, Any], path: Path) -> None:
     for i, (start, colour) in enumerate(((STORED, "tab:blue"), (HELDOUT, "tab:orange"))):
         x = np.arange(len(rows)) + (i - 0.5) * 0.38
         y = np.array([r[start]["rate"] if r[start] else math.nan for r in rows])
-        low = np.array([r[start]["rate"] - r[start]["low"] if r[start] else 0 for r in rows])
-        high = np.array([r[start]["high"] - r[start]["rate"] if r[start] else 0 for r in rows])
+        # Clipped at 0: a Wilson bound can lie a rounding error on the wrong side of the rate.
+        low = np.array([max(r[start]["rate"] - r[start]["low"], 0.0) if r[start] else 0 for r in rows])
+        high = np.array([max(r[start]["high"] - r[start]["rate"], 0.0) if r[start] else 0 for r in rows])
         ax.bar(x, y, width=0.38, color=colour, label=f"{start} starts")
         ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=3)
     ax.set_xticks(range(len(rows)), [str(i) for i in range(len(rows))])

@@ -86,6 +86,7 @@ def eval_cmd(
     quiet_environment()
     from libero_bench.policy_eval import EvalRequest, evaluate_policy, markdown
     from libero_bench.rollouts.loop import Execution
+    from libero_bench.rollouts.sources import policy_source
     from libero_data.errors import InputError
 
     if not tasks:
@@ -103,8 +104,11 @@ def eval_cmd(
         replan_steps=replan_steps,
     )
     execution = Execution(workers, batch_size, executor, ray_address, device)
+    source = policy_source(request.policy, request.image_size, request.replan_steps)  # before any output
     with rollout_progress() as (done, total):
-        summary = evaluate_policy(request, out, execution=execution, on_result=done, on_total=total)
+        summary = evaluate_policy(
+            request, out, execution=execution, on_result=done, on_total=total, source=source
+        )
     say(markdown(summary))
     say(
         f"wrote {out / 'report.md'}, {out / 'report.json'}, {out / 'success.png'}, the rollouts in {out / 'rollouts'}"

@@ -83,7 +83,8 @@ def connect(url: str, timeout: float) -> tuple[Any, dict[str, Any]]:
     from websockets.sync.client import connect as ws_connect
 
     try:
-        connection = ws_connect(url, compression=None, max_size=None, open_timeout=timeout)
+        # legacy=True: a plain connection, not websockets' context manager (closed in end())
+        connection = ws_connect(url, compression=None, max_size=None, open_timeout=timeout, legacy=True)
     except InvalidURI as exc:
         raise PolicyServerError(f"{url!r} is not a websocket address (ws://HOST:PORT)") from exc
     except (OSError, TimeoutError, InvalidHandshake, WebSocketException) as exc:
