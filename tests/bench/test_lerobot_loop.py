@@ -9,7 +9,9 @@ import subprocess
 import sys
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
+import numpy as np
 import pytest
 
 from libero_bench.lerobot_policy import serve
@@ -153,8 +155,9 @@ def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
     grid = json.loads((sweep / "robustness.json").read_text())["table"]["grid"]
     assert grid["noise"]["0"]["n"] == 1 and grid["noise"]["2"]["n"] == 1
 
-    # lerobot-eval finds our environment plugin: a shipped task and a generated one.
-    for task_ref in ("libero_goal/7", f"{procedural_suite}/0"):
+    # lerobot-eval finds our environment plugin: a shipped task and a generated one, with one
+    # environment and with two in a batch (LeRobot batches the policy over them).
+    for task_ref, batch in (("libero_goal/7", 2), (f"{procedural_suite}/0", 1)):
         le = _run(
             str(VENV_BIN / "lerobot-eval"),
             f"--policy.path={act}",
@@ -164,15 +167,15 @@ def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
             "--env.wrist_key=wrist_image",  # the policy learned libero-data's names
             "--env.image_size=64",
             "--env.episode_length=4",
-            "--eval.n_episodes=1",
-            "--eval.batch_size=1",
+            f"--eval.n_episodes={batch}",
+            f"--eval.batch_size={batch}",
             f"--output_dir={tmp_path / 'lerobot-eval' / task_ref.replace('/', '_')}",
         )
         assert le.returncode == 0, le.stderr[-3000:]
         info = json.loads(
             (tmp_path / "lerobot-eval" / task_ref.replace("/", "_") / "eval_info.json").read_text()
         )
-        assert info["overall"]["n_episodes"] == 1
+        assert info["overall"]["n_episodes"] == batch
 
     # Diffusion Policy too (its own processors, another input layout).
     diffusion = _train(tiny_dataset, tmp_path / "diffusion", DIFFUSION)
@@ -192,3 +195,51 @@ def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
     result = _run(sys.executable, "-m", "libero_bench.cli", "eval", str(diffusion), *args)
     assert result.returncode == 0, result.stderr[-3000:]
     assert json.loads((other / "report.json").read_text())["all"]["stored"]["n"] == 1
+
+
+@pytest.mark.sim
+def test_lerobot_batches_give_every_rollout_the_start_libero_bench_gives_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """LeRobot's rollout over our vector environments, batch sizes 1 and 2: rollout r starts where
+    libero-bench's rollout r starts, even when a sub-environment ends early and gymnasium resets it
+    on its own (even rollouts here end after one step, as if they had succeeded)."""
+    import torch
+    from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+    from lerobot.scripts.lerobot_eval import rollout
+    from lerobot_env_libero_data import LiberoDataEnvConfig
+    from lerobot_env_libero_data.env import LiberoDataGymEnv
+    from lerobot_policies import save_policy
+
+    from libero_bench.lerobot_policy import policy_config
+    from libero_bench.rollouts.jobs import EvalTask
+    from libero_data.tasks import get_task
+
+    step = LiberoDataGymEnv.step
+
+    def succeed_early(self: LiberoDataGymEnv, action: Any) -> Any:
+        obs, reward, terminated, truncated, info = step(self, action)
+        return obs, reward, terminated or (self.start is not None and self.start[0] % 2 == 0), truncated, info
+
+    monkeypatch.setattr(LiberoDataGymEnv, "step", succeed_early)
+    folder = save_policy("act", tmp_path / "act")
+    config = policy_config(folder)
+    policy = get_policy_class(config.type).from_pretrained(str(folder), config=config).eval()
+    pre, post = make_pre_post_processors(policy_cfg=config, pretrained_path=str(folder))
+    env_config = LiberoDataEnvConfig(
+        task="libero_object/0", image_size=32, episode_length=3, settle=2, wrist_key="wrist_image"
+    )
+    env_pre, env_post = env_config.get_env_processors()
+    task = get_task("libero_object/0")
+    bench = EvalTask(task.name, task.language, 0, str(task.bddl_path), np.zeros(1), task.init_states())
+    expected = {r: bench.start(r)[1:] for r in range(4)}
+    for n_envs in (1, 2):
+        (vector,) = env_config.create_envs(n_envs)["libero_object"].values()
+        seen = {}
+        with torch.inference_mode():
+            for _batch in range(4 // n_envs):
+                rollout(vector, policy, env_pre, env_post, pre, post)
+                for r, index, seed in vector.get_attr("start"):
+                    seen[r] = (index, seed)
+        vector.close()
+        assert seen == expected, f"batch size {n_envs}"

@@ -68,7 +68,15 @@ class LiberoDataEnvConfig(EnvConfig):
         self, n_envs: int, use_async_envs: bool = False
     ) -> dict[str, dict[int, gym.vector.VectorEnv]]:
         """{suite: {task index: a vector of ``n_envs`` environments}}; environments are built
-        lazily in the process that steps them (a GL context does not survive a fork)."""
+        lazily in the process that steps them (a GL context does not survive a fork).
+
+        Sub-environment i runs episodes i, i + n_envs, ...: LeRobot's batch b is rollouts
+        b * n_envs ... (b + 1) * n_envs - 1, as libero-bench numbers them. Each sub-environment is
+        wrapped in LeRobot's ``FreezeAfterEpisodeEnd``, which absorbs gymnasium's autoreset of a
+        finished sub-environment: only LeRobot's explicit reset of a new rollout takes the next start.
+        """
+        from lerobot.envs.utils import freeze_after_episode_end
+
         from lerobot_env_libero_data.env import LiberoDataGymEnv, resolve_tasks
 
         suite, tasks = resolve_tasks(self.task)
@@ -78,7 +86,7 @@ class LiberoDataEnvConfig(EnvConfig):
             def make(i: int, task_ref: str = task.ref) -> gym.Env:
                 return LiberoDataGymEnv(task_ref, episode_index=i, stride=n_envs, **self.gym_kwargs)
 
-            fns = [lambda i=i, make=make: make(i) for i in range(n_envs)]
+            fns = [freeze_after_episode_end(lambda i=i, make=make: make(i)) for i in range(n_envs)]
             if use_async_envs and n_envs > 1:
                 out[task.index] = gym.vector.AsyncVectorEnv(fns, context="forkserver")
             else:

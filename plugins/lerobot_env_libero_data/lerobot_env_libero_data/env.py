@@ -76,6 +76,7 @@ class LiberoDataGymEnv(gym.Env):
         self._stride = stride
         self._env: Any = None
         self._last: dict[str, Any] | None = None
+        self.start: tuple[int, int, int] | None = None  # (rollout, init index, fixture/placement seed)
         image = spaces.Box(low=0, high=255, shape=(image_size, image_size, 3), dtype=np.uint8)
         self.observation_space = spaces.Dict(
             {
@@ -85,14 +86,15 @@ class LiberoDataGymEnv(gym.Env):
         )
         self.action_space = spaces.Box(low=-1.0, high=1.0, shape=(7,), dtype=np.float32)
 
-    def _start(self, r: int) -> tuple[np.ndarray | None, int]:
+    def _start(self, r: int) -> tuple[np.ndarray | None, int, int]:
+        """(init state, init index, seed) of rollout ``r``."""
         from libero_data.seeding import heldout_starts, rollout_start
 
         if self._starts == "heldout":
-            return None, heldout_starts(self._task.name, r + 1)[r]
+            return None, -1, heldout_starts(self._task.name, r + 1)[r]
         stored = self._task.init_states() if self._task.init_states_path is not None else None
         index, seed = rollout_start(r, 0 if stored is None else len(stored))
-        return (stored[index] if stored is not None and index >= 0 else None), seed
+        return (stored[index] if stored is not None and index >= 0 else None), index, seed
 
     def _observation(self, obs: dict[str, Any]) -> dict[str, Any]:
         self._last = obs
@@ -110,7 +112,8 @@ class LiberoDataGymEnv(gym.Env):
         if self._env is None:  # built here, in the process that steps it
             config = EnvConfig(image_size=self._image_size, render_quality=self._render_quality)
             self._env = LiberoEnv(self._task, config)
-        state, env_seed = self._start(self._next)
+        state, index, env_seed = self._start(self._next)
+        self.start = (self._next, index, env_seed)
         self._next += self._stride
         obs = self._env.reset(state, seed=env_seed, settle=self._settle)
         return self._observation(obs), {"is_success": False, "env_seed": env_seed}
