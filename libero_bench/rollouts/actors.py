@@ -13,8 +13,10 @@ step, each slot with its own history (:meth:`libero_bench.policies.Policy.act_ro
 
 from __future__ import annotations
 
+import os
 from collections import deque
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -94,6 +96,26 @@ class ActionQueues:
         return self._queues[slot].popleft()
 
 
+@contextmanager
+def forward_threads(device: Any, threads: int | None = None) -> Iterator[None]:
+    """torch's CPU threads for one batched forward pass: every core of this machine by default
+    (the environments wait for the policy, so nothing else needs them), and back to what they
+    were after it. Between passes the driver keeps one thread: with more, the per-step work
+    (stacking, normalising) would wake idle torch threads that take CPU time from the workers'
+    rendering (measured: 6.0 s instead of 4.5 s for a 40-step rollout with 2 threads)."""
+    import torch
+
+    if getattr(device, "type", str(device)) != "cpu":
+        yield
+        return
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads or len(os.sched_getaffinity(0)))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
 def default_device() -> str:
     """cuda where available, then mps, else cpu."""
     import torch
@@ -160,7 +182,8 @@ class PolicyActor(BatchActor):
             return {}
         batch = observation_rows([observations[s] for s in slots], [self._embedding[s] for s in slots])
         batch = {k: v.to(self.device) for k, v in batch.items()}
-        actions, history = self.policy.act_rows(batch, [self._history[s] for s in slots])
+        with forward_threads(self.device):
+            actions, history = self.policy.act_rows(batch, [self._history[s] for s in slots])
         self.counted(len(slots))
         self._history.update(zip(slots, history, strict=True))
         out = actions.detach().cpu().numpy()

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from libero_bench.lerobot_policy import SIM_STATE, SIM_STATE_DIM, Inputs, policy_config, serve
-from libero_bench.rollouts.actors import ActionQueues, BatchActor, Observations, Start
+from libero_bench.rollouts.actors import ActionQueues, BatchActor, Observations, Start, forward_threads
 from libero_data.errors import InputError
 from libero_data.seeding import policy_noise_seed
 
@@ -171,7 +171,8 @@ class LeRobotActor(BatchActor):
             # seeded by the first waiting rollout, they repeat with the same batch.
             first = waiting[0]
             torch.manual_seed(policy_noise_seed(self._job[first][0], self._chunks[first]) + 1)
-            chunk = self.policy.predict_action_chunk(batch, **kwargs)
+            with forward_threads(self.device):
+                chunk = self.policy.predict_action_chunk(batch, **kwargs)
         steps = self.queues.steps
         chunk = self.postprocessor(chunk[:, :steps] if steps else chunk)
         self.counted(len(waiting))

@@ -144,9 +144,9 @@ class PolicyServer:
         assert self._wake is not None
         while True:
             await self._wake.wait()
-            count = -1
-            while count != len(self._pending):  # gather: until no request came for gather_s
-                count = len(self._pending)
+            count, rounds = -1, 0
+            while count != len(self._pending) and rounds < 25:  # gather: until none came for gather_s
+                count, rounds = len(self._pending), rounds + 1
                 await asyncio.sleep(self.gather_s)
             self._wake.clear()
             batch, self._pending = self._pending, []

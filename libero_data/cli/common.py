@@ -116,6 +116,9 @@ def quiet_environment(threads: int = 1) -> None:
     import os
 
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))
+    # Idle OpenMP threads sleep instead of spinning: a policy's forward pass may use every core
+    # while the environments wait, and spinning threads would then take CPU from their rendering.
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     os.environ.setdefault("SVT_LOG", "1")
     os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
 

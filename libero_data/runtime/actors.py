@@ -58,8 +58,6 @@ def _reraise(index: int, payload: tuple[BaseException, str]) -> None:
 def _process_main(conn: Any, factory: Factory, root: str, setup: Callable[[], None] | None) -> None:
     """A worker process: build the object, then run calls until told to stop."""
     from libero_data.runtime.jobs import become_worker, die_with_parent
-    from libero_data.runtime.memory import release_free_memory
-
     die_with_parent()
     become_worker(None, setup)
     cache = WorkerCache()
@@ -83,7 +81,6 @@ def _process_main(conn: Any, factory: Factory, root: str, setup: Callable[[], No
                 conn.send(
                     (False, (RuntimeError(f"{method} returned something that cannot be sent: {exc}"), ""))
                 )
-            release_free_memory()
     except (EOFError, KeyboardInterrupt):
         pass
     finally:
