@@ -51,6 +51,10 @@ class Evaluator:
     def worker_pids(self) -> list[int]:
         return self.environments.worker_pids()
 
+    def describe(self) -> dict[str, object]:
+        """How the rollouts run (batch size, executor, workers), recorded with each round's timing."""
+        return self.environments.describe()
+
     def run(
         self,
         policy: Policy,

@@ -104,6 +104,7 @@ class EvaluationRounds:
             {
                 "what": "evaluate",
                 "label": label,
+                **self.evaluator.describe(),
                 "rollouts": len(jobs),
                 "steps": sum(o.steps for o in outcomes),
                 "seconds": round(time.perf_counter() - started, 3),

@@ -152,8 +152,8 @@ def serve_cmd(
     chosen = device or default_device()
     actor, metadata, embed, size = served_policy(str(policy), chosen, view_task)
     server = PolicyServer(actor, metadata, embed=embed, image_size=size)
-    ready = lambda: say(  # noqa: E731
-        f"serving the {metadata['policy_type']} policy on {chosen} at ws://{host}:{port} "
+    ready = lambda bound: say(  # noqa: E731
+        f"serving the {metadata['policy_type']} policy on {chosen} at ws://{host}:{bound} "
         f"(camera images of {metadata['image_size']} px); Ctrl-C stops"
     )
     try:

@@ -116,6 +116,7 @@ class EpisodeHost:
         from libero_bench.rollouts.jobs import RolloutResult
         from libero_data.record.features import FeatureLayout
         from libero_data.record.shard import write_frames
+        from libero_data.runtime.memory import release_free_memory
 
         job, frames, success = episode.job, episode.frames, episode.success
         reached = bool(success and success[-1])
@@ -140,6 +141,7 @@ class EpisodeHost:
         )
         self.ctx.ship(job.shard_dir)
         self.ctx.ship(job.rrd_path)
+        release_free_memory()  # between episodes, as the job runner's workers do
         return RolloutResult(job.key, reached, len(frames), time.perf_counter() - episode.started)
 
     def abandon(self) -> None:

@@ -181,8 +181,8 @@ class PolicyServer:
                 self._begun.add(p.slot)
         return self.actor.act({p.slot: p.observation for p in batch})
 
-    async def serve(self, host: str, port: int, ready: Callable[[], None] | None = None) -> None:
-        """Serve until cancelled."""
+    async def serve(self, host: str, port: int, ready: Callable[[int], None] | None = None) -> None:
+        """Serve until cancelled; ``ready`` gets the port listened on (``port`` 0: one the system chose)."""
         from websockets.asyncio.server import serve
 
         self._wake = asyncio.Event()
@@ -190,7 +190,7 @@ class PolicyServer:
         try:
             async with serve(self.handler, host, port, compression=None, max_size=None) as server:
                 if ready is not None:
-                    ready()
+                    ready(int(next(iter(server.sockets)).getsockname()[1]))
                 await server.serve_forever()
         finally:
             batcher.cancel()

@@ -58,6 +58,7 @@ def _reraise(index: int, payload: tuple[BaseException, str]) -> None:
 def _process_main(conn: Any, factory: Factory, root: str, setup: Callable[[], None] | None) -> None:
     """A worker process: build the object, then run calls until told to stop."""
     from libero_data.runtime.jobs import become_worker, die_with_parent
+
     die_with_parent()
     become_worker(None, setup)
     cache = WorkerCache()

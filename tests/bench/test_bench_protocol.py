@@ -52,6 +52,9 @@ class ScriptedEvaluator:
     def __exit__(self, *exc: object) -> None:
         pass
 
+    def describe(self) -> dict[str, object]:
+        return {"batch_size": 1, "executor": "local", "workers": 0}
+
     def run(self, policy: Any, jobs: list[RolloutJob], on_result: Any = None) -> list[RolloutResult]:
         out = []
         for job in jobs:

@@ -239,7 +239,7 @@ def test_lerobot_batches_give_every_rollout_the_start_libero_bench_gives_it(
         with torch.inference_mode():
             for _batch in range(4 // n_envs):
                 rollout(vector, policy, env_pre, env_post, pre, post)
-                for r, index, seed in vector.get_attr("start"):
+                for r, index, seed in vector.get_attr("start"):  # type: ignore[attr-defined]
                     seen[r] = (index, seed)
         vector.close()
         assert seen == expected, f"batch size {n_envs}"

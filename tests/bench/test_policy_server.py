@@ -14,6 +14,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import datasets
 import numpy as np
@@ -94,7 +95,7 @@ def test_a_served_policy_is_evaluated_as_a_local_one_and_a_dying_server_leaves_a
     policy = save_policy("act", tmp_path / "act")
     port = free_port()
     url = f"ws://127.0.0.1:{port}"
-    request = dict(tasks=(TASK,), stored=1, heldout=1, max_steps=4, settle=2)
+    request: dict[str, Any] = dict(tasks=(TASK,), stored=1, heldout=1, max_steps=4, settle=2)
     local = evaluate_policy(
         EvalRequest(str(policy), **request), tmp_path / "local", execution=Execution(workers=0, batch_size=2)
     )

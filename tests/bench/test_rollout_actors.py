@@ -1,9 +1,16 @@
 """What acts for a batch of environments, without a simulator: LeRobot's policies batched over slots
 that start at different steps act as LeRobot's own select_action does for each alone; openpi's
-message format round-trips and refuses what could run code."""
+message format round-trips and refuses what could run code; a policy server batches requests from
+several connections and answers a bad one with text."""
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import queue
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -15,8 +22,10 @@ from lerobot_policies import save_policy
 from libero_bench.lerobot_policy import policy_config, serve
 from libero_bench.rollouts.actors import ActionQueues, Start
 from libero_bench.rollouts.lerobot_actor import LeRobotActor, raw_batch
+from libero_bench.rollouts.remote import RemoteActor, connect
+from libero_bench.rollouts.server import PolicyServer
 from libero_bench.rollouts.wire import pack, unpack
-from libero_data.errors import InputError
+from libero_data.errors import InputError, PolicyServerError
 from libero_data.seeding import policy_noise_seed
 
 STEPS = 9
@@ -127,3 +136,65 @@ def test_openpi_messages_round_trip_and_nothing_that_runs_code_passes() -> None:
     forged = msgpack.packb({b"__ndarray__": True, b"data": b"", b"dtype": "|O", b"shape": (0,)})
     with pytest.raises(InputError, match="refused"):
         unpack(forged)
+
+
+@contextmanager
+def serving(server: PolicyServer) -> Iterator[int]:
+    """``server`` on a loopback port the system chooses, in a thread; yields the port."""
+    loop = asyncio.new_event_loop()
+    ports: queue.Queue[int] = queue.Queue()
+    task: dict[str, asyncio.Task[None]] = {}
+
+    def run() -> None:
+        asyncio.set_event_loop(loop)
+        task["serve"] = loop.create_task(server.serve("127.0.0.1", 0, ready=ports.put))
+        with contextlib.suppress(asyncio.CancelledError):
+            loop.run_until_complete(task["serve"])
+        loop.close()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        yield ports.get(timeout=60)
+    finally:
+        loop.call_soon_threadsafe(task["serve"].cancel)
+        thread.join(timeout=30)
+
+
+def test_a_server_batches_requests_from_several_connections_and_answers_bad_ones_in_text(
+    tmp_path: Path,
+) -> None:
+    folder = save_policy("act", tmp_path / "act")
+    served = LeRobotActor(folder, "cpu")
+    server = PolicyServer(served, {"server": "libero-bench", "image_size": 32})
+    rng = np.random.default_rng(1)
+    observations = {
+        slot: {**_observation(rng), "joint_pos": np.zeros(7), "gripper_state": np.zeros(2)} for slot in (0, 1)
+    }
+    with serving(server) as port:
+        url = f"ws://127.0.0.1:{port}"
+        client = RemoteActor(url, image_size=32, replan_steps=1)
+        assert client.metadata["server"] == "libero-bench"
+        for slot in (0, 1):
+            client.begin(slot, Start(f"k{slot}", "put the bowl on the plate"))
+        remote = client.act(observations)
+        # Both connections' requests went out together and were answered in one forward pass.
+        assert server.batches == [2] and served.forwards == 1 and client.forwards == 1
+        local = LeRobotActor(folder, "cpu")
+        for slot in (0, 1):
+            local.begin(slot, Start(f"k{slot}", "put the bowl on the plate"))
+        np.testing.assert_allclose(
+            np.stack([remote[0], remote[1]]), np.stack(list(local.act(observations).values())), atol=1e-6
+        )
+        client.close()
+        # A request that cannot be served gets its reason as text (openpi's error reply).
+        connection, _ = connect(url, timeout=30)
+        connection.send(pack({"prompt": "open the drawer"}))
+        reply = connection.recv(timeout=30)
+        connection.close()
+        assert (
+            isinstance(reply, str)
+            and "lacks observation/image, observation/wrist_image, observation/state" in reply
+        )
+    with pytest.raises(PolicyServerError, match=rf"cannot reach the policy server at {url}"):
+        RemoteActor(url)

@@ -4,6 +4,7 @@ the environments, and every rollout index starting from the same state whatever 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -11,7 +12,7 @@ import pytest
 import torch
 
 from libero_bench.policies import make_policy
-from libero_bench.rollouts.actors import PolicyActor
+from libero_bench.rollouts.actors import Observations, PolicyActor
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, make_job
 from libero_bench.rollouts.loop import Execution
 from libero_bench.run_files import HELDOUT, STORED
@@ -58,6 +59,18 @@ def jobs_of(root: Path) -> list[RolloutJob]:
     ]
 
 
+class CountingActor(PolicyActor):
+    """Notes how many environments each call of ``act`` served."""
+
+    def __init__(self, policy: Any) -> None:
+        super().__init__(policy)
+        self.widths: list[int] = []
+
+    def act(self, observations: Observations) -> dict[int, np.ndarray]:
+        self.widths.append(len(observations))
+        return super().act(observations)
+
+
 def frames(shard: Path, column: str) -> np.ndarray:
     (data,) = sorted((shard / "data").rglob("*.parquet"))
     return np.stack(pq.read_table(data).column(column).to_pylist())
@@ -70,16 +83,13 @@ def test_one_batched_pass_per_step_and_the_same_starts_with_batch_sizes_1_and_3(
     for batch in (1, 3):
         root = tmp_path / f"b{batch}"
         jobs = jobs_of(root)
-        actor = PolicyActor(policy)
-        widths: list[int] = []
-        act = actor.act
-        actor.act = lambda obs, act=act, widths=widths: (widths.append(len(obs)), act(obs))[1]  # type: ignore[method-assign]
+        actor = CountingActor(policy)
         with Execution(workers=0, batch_size=batch).open(root) as environments:
             results = dict(environments.run(actor, jobs))
         assert sorted(results) == [0, 1, 2, 3] and all(r.steps == STEPS for r in results.values())
         # One call, one forward pass, per control step, over every environment then running.
-        assert actor.forwards == len(widths) and actor.rows == sum(widths) == 4 * STEPS
-        counts[batch] = widths
+        assert actor.forwards == len(actor.widths) and actor.rows == sum(actor.widths) == 4 * STEPS
+        counts[batch] = actor.widths
     assert counts[1] == [1] * (4 * STEPS)
     assert counts[3] == [3] * STEPS + [1] * STEPS  # three run together; the fourth takes a freed slot
     for job in jobs_of(tmp_path):
