@@ -82,32 +82,6 @@ def save_policy(kind: str, out: Path, size: int) -> Path:
     return out
 
 
-def jobs(task_ref: str, first: int, n: int, size: int, max_steps: int) -> list[Any]:
-    import numpy as np
-
-    from libero_bench.rollouts.jobs import EvalTask, make_job
-    from libero_data.tasks import get_task
-
-    task = get_task(task_ref)
-    states = task.init_states()
-    eval_task = EvalTask(task.name, task.language, 0, str(task.bddl_path), np.zeros(1), states)
-    return [
-        make_job(
-            eval_task,
-            r,
-            key=f"r{r:04d}",
-            settle=10,
-            max_steps=max_steps,
-            image_size=size,
-            sim_state_width=states.shape[1],
-            shard_dir=f"shards/r{r:04d}",
-            rrd_path=f"rrd/r{r:04d}.rrd",
-            tags={"bench": True},
-        )
-        for r in range(first, first + n)
-    ]
-
-
 # -- per worker: every worker process its own policy copy, batch 1 --------------------------------
 def per_worker_rollout(ctx: Any, job: Any) -> Any:
     """One rollout as the job runner's workers ran them: the worker's own policy copy, one torch
@@ -151,7 +125,10 @@ def measure(
     from benchmarks.results import status_mib
 
     work = Path(tempfile.mkdtemp(prefix="bench-batched-"))
-    warm, timed = jobs(task, 0, envs, size, max_steps), jobs(task, envs, rounds * envs, size, max_steps)
+    from benchmarks.bench_eval import rollout_jobs
+
+    warm = rollout_jobs(task, envs, size, max_steps, work / "warm")
+    timed = rollout_jobs(task, rounds * envs, size, max_steps, work / "timed", first=envs)
     if way == "per-worker":
         from libero_data.runtime.jobs import Executor, JobRunner
 

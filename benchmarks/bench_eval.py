@@ -33,7 +33,7 @@ os.environ.setdefault("SVT_LOG", "1")
 from benchmarks.results import growth_summary, status_mib
 
 
-def _jobs(task_ref: str, n: int, size: int, max_steps: int, work: Path, first: int = 0) -> list[Any]:
+def rollout_jobs(task_ref: str, n: int, size: int, max_steps: int, work: Path, first: int = 0) -> list[Any]:
     import numpy as np
 
     from libero_bench.rollouts.jobs import EvalTask, make_job
@@ -89,9 +89,13 @@ def rate(
         os.environ["LP_NUM_THREADS"] = str(render_threads)  # read by each worker as it starts
     try:
         with Evaluator(workers, work) as evaluator:
-            evaluator.run(policy, _jobs(task_ref, workers, size, max_steps, work / "warm"))  # start + warm up
+            evaluator.run(
+                policy, rollout_jobs(task_ref, workers, size, max_steps, work / "warm")
+            )  # start + warm up
             start = time.perf_counter()
-            evaluator.run(policy, _jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers))
+            evaluator.run(
+                policy, rollout_jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers)
+            )
             minutes = (time.perf_counter() - start) / 60
             pids = evaluator.worker_pids()
             peaks = [status_mib(pid, "VmHWM") for pid in pids]
@@ -113,7 +117,7 @@ def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> lis
     try:
         with Evaluator(1, work) as evaluator:
             for r in range(rollouts):
-                evaluator.run(policy, _jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
+                evaluator.run(policy, rollout_jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
                 (pid,) = evaluator.worker_pids()
                 trace.append(status_mib(pid, "VmRSS"))
                 shutil.rmtree(work / f"m{r}", ignore_errors=True)
