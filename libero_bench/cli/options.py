@@ -64,10 +64,11 @@ ReplanSteps = Annotated[
 
 def policy_or_server(policy: object, server: str | None) -> str:
     """The policy reference of a command that takes a folder or ``--server``, exactly one of them."""
+    from libero_bench.rollouts.sources import is_server
     from libero_data.errors import InputError
 
     if (policy is None) == (server is None):
         raise InputError("give a policy folder or --server ws://HOST:PORT, not both and not neither")
-    if server is not None and not server.startswith(("ws://", "wss://")):
+    if server is not None and not is_server(server):
         raise InputError(f"--server takes a websocket address such as ws://HOST:PORT, got {server!r}")
     return str(server if server is not None else policy)

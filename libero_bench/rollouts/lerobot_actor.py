@@ -144,8 +144,12 @@ class LeRobotActor(BatchActor):
         with torch.inference_mode():
             raw = raw_batch(self.inputs, [observations[s] for s in slots], [self._job[s][1] for s in slots])
             processed = self.preprocessor(raw)
-            for i, slot in enumerate(slots):
-                row = {k: v[i] for k, v in processed.items() if isinstance(v, torch.Tensor) and v.dim() > 0}
+            for i, slot in enumerate(slots if self.n_obs > 1 else ()):  # windows of past observations
+                row = {
+                    k: v[i]
+                    for k in self.config.input_features
+                    if isinstance(v := processed.get(k), torch.Tensor)
+                }
                 history = self._history[slot]
                 while len(history) < self.n_obs - 1:  # a new episode: its first observation repeated
                     history.append(row)
@@ -160,7 +164,7 @@ class LeRobotActor(BatchActor):
         import torch
 
         if self.n_obs > 1:
-            for key in [k for k in self._history[waiting[0]][0] if k in self.config.input_features]:
+            for key in self._history[waiting[0]][0]:
                 batch[key] = torch.stack([torch.stack([h[key] for h in self._history[s]]) for s in waiting])
         kwargs = {}
         if self._noise:
