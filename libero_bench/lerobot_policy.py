@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_data.errors import InputError, MissingFileError
+from libero_data.errors import InputError, MissingFileError, PolicyFolderError
 
 #: Camera input names -> our cameras.
 CAMERA_NAMES = {
@@ -98,10 +98,44 @@ def policy_config(path: Path) -> Any:
     from lerobot.utils.import_utils import register_third_party_plugins
 
     register_third_party_plugins()  # policies of installed lerobot_policy_* packages too
+    from libero_bench.run_files import RunFolder
+
     path = Path(path)
+    if RunFolder(path).is_run():
+        raise InputError(
+            f"{path} is a libero-bench run folder, not a LeRobot policy folder; `libero-bench robustness` "
+            "and `libero-bench serve` take run folders",
+            field="policy",
+        )
     if not (path / "config.json").is_file():
         raise MissingFileError(
             f"{path} is not a LeRobot policy folder (no config.json); give the pretrained_model/ folder "
             "lerobot-train writes"
         )
-    return PreTrainedConfig.from_pretrained(str(path))
+    try:
+        config = PreTrainedConfig.from_pretrained(str(path))
+    except Exception as exc:  # draccus, JSON and type errors alike: the file is not a policy config
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise PolicyFolderError(f"{path / 'config.json'} is not a LeRobot policy config ({first})") from None
+    _check_weights(path / "model.safetensors")
+    return config
+
+
+def _check_weights(path: Path) -> None:
+    """The policy's weights exist and are a safetensors file (read without unpickling anything)."""
+    from safetensors import SafetensorError, safe_open
+
+    from libero_bench.state_files import is_pickle
+
+    if not path.is_file():
+        raise MissingFileError(f"the policy's weights {path} are missing")
+    if is_pickle(path):
+        raise PolicyFolderError(f"{path} is a pickle, not safetensors; pickles are not opened here")
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            names = list(f.keys())
+    except (SafetensorError, OSError, ValueError) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise PolicyFolderError(f"{path} is not a safetensors file ({first})") from None
+    if not names:
+        raise PolicyFolderError(f"{path} holds no weights")

@@ -186,6 +186,8 @@ def plan_run(request: RunRequest) -> RunPlan:
         **({} if preset.augment is None else {"augment": bool(preset.augment)}),
     )
     algo = _algo_for(request.algo, preset.algo_size, seed)
+    if request.init_checkpoint is not None:
+        _check_initial_weights(request.init_checkpoint, pconfig, request.policy)
     return RunPlan(
         request=request,
         source=source,
@@ -196,6 +198,19 @@ def plan_run(request: RunRequest) -> RunPlan:
         policy_config=pconfig.to_dict(),
         algo_config=algo.config.to_dict(),
         needs_all_tasks=type(algo).needs_all_tasks,
+    )
+
+
+def _check_initial_weights(path: Path, pconfig: Any, policy_name: str) -> None:
+    """Weights that are a pickle, not safetensors or of another policy are refused here, before
+    a run folder is made."""
+    import torch
+
+    from libero_bench.checkpoints import load_initial_weights
+    from libero_bench.policies import POLICIES
+
+    load_initial_weights(
+        path, POLICIES.get(pconfig.name).from_config(pconfig), torch.device("cpu"), policy_name
     )
 
 

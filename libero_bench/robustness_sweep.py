@@ -33,13 +33,14 @@ def sweep(
 ) -> dict[str, Any]:
     """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
     policy server, ``ws://HOST:PORT``)."""
-    from libero_bench.rollouts.sources import is_server
+    from libero_bench.rollouts.sources import check_policy, is_server
     from libero_bench.run_files import RunFolder
     from libero_data.runtime.versions import versions
 
     execution = execution or Execution()
     out = Path(out).resolve()
     ref = str(policy) if is_server(str(policy)) else str(Path(policy).resolve())
+    check_policy(ref, request.image_size, request.replan_steps)  # before anything is written
     cells = make_cells(request, out / VARIANTS)
     if not is_server(ref) and RunFolder(Path(ref)).is_run():
         from libero_bench.robustness_run import run_outcomes

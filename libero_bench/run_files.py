@@ -7,9 +7,10 @@
       results.json        success tensor (curve, after), best epochs, losses, every rollout's outcome
       timings.jsonl       seconds per epoch / evaluation round (not part of the results)
       run.log             the library's log (written by the CLI)
-      checkpoints/task_NNN.pt   policy + algorithm state + RNG after each task (resume point)
-      checkpoints/task_NNN.epoch.pt  the same plus optimiser, schedule and results after the
-                                last finished epoch of the task in progress (removed when it ends)
+      checkpoints/task_NNN.safetensors  policy + algorithm state + RNG after each task (resume
+                                point; tensors plus a JSON header, nothing pickled: state_files)
+      checkpoints/task_NNN.epoch.safetensors  the same plus optimiser, schedule and results after
+                                the last finished epoch of the task in progress (removed when it ends)
       rollouts/           every evaluation rollout as one LeRobot dataset (+ mcap/ per rollout)
       rrd/<key>.rrd       a Rerun recording per rollout
       .work/              shards and scratch files while running
@@ -24,7 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from libero_data.errors import InputError, RunError
+from libero_bench.state_files import MIGRATE_HINT
+from libero_data.errors import CheckpointError, InputError, RunError
 
 CONFIG = "config.json"
 RESULTS = "results.json"
@@ -239,10 +241,17 @@ class RunFolder:
         return self.work / "shards"
 
     def checkpoint(self, task: int) -> Path:
-        return self.checkpoints / f"task_{task:03d}.pt"
+        return self.checkpoints / f"task_{task:03d}.safetensors"
 
     def epoch_state(self, task: int) -> Path:
-        return self.checkpoints / f"task_{task:03d}.epoch.pt"
+        return self.checkpoints / f"task_{task:03d}.epoch.safetensors"
+
+    def refuse_pickles(self) -> None:
+        """One sentence if the run's checkpoints are pickles (``.pt``, from before safetensors)."""
+        pickled = sorted(p.name for p in self.checkpoints.glob("*.pt")) if self.checkpoints.is_dir() else []
+        if pickled:
+            shown = ", ".join(pickled[:3]) + (", ..." if len(pickled) > 3 else "")
+            raise CheckpointError(f"{self.checkpoints} holds pickled checkpoints ({shown}); {MIGRATE_HINT}")
 
     def shard(self, key: str) -> Path:
         return self.shards / key

@@ -118,6 +118,7 @@ class Trainer:
         config = self.plan.config(self.options)
         root = self.folder.root
         if self.folder.config.is_file():
+            self.folder.refuse_pickles()  # whatever the settings: a pickled checkpoint is never opened
             saved = self.folder.read_config()
             preset = {**LEGACY_PRESET, **saved.get("preset", {})}
             changed = changed_keys({**saved, "preset": preset}, config, ignore=RUNTIME_KEYS)
@@ -190,10 +191,10 @@ class Trainer:
     # -- the protocol ------------------------------------------------------------------------------
     def run(self) -> RunResults:
         """Run or resume; returns the final results (also in ``results.json``)."""
-        results = self.prepare()
         seed_everything(run_seed(self.plan.seed, 0, WEIGHTS))  # the initial weights depend on the seed only
         policy = self._new_policy()
         algo = self._new_algo()
+        results = self.prepare()
         self.folder.work.mkdir(parents=True, exist_ok=True)
         with evaluate.Evaluator(
             self.options.workers,
@@ -229,10 +230,13 @@ class Trainer:
             load_checkpoint(self.folder.checkpoint(done - 1), policy, algo)
             logger.info("resuming %s after task %d", self.folder.root, done - 1)
         elif self.plan.request.init_checkpoint is not None:
-            load_initial_weights(
-                self.plan.request.init_checkpoint, policy, self.device, self.plan.request.policy
-            )
+            self._initial_weights(policy)
         return done
+
+    def _initial_weights(self, policy: Policy) -> None:
+        request = self.plan.request
+        assert request.init_checkpoint is not None
+        load_initial_weights(request.init_checkpoint, policy, self.device, request.policy)
 
     def _run_sequential(self, results: RunResults, policy: Policy, algo: Algo) -> None:
         start = self._resume_point(results, policy, algo, self.K)

@@ -96,3 +96,11 @@ class PolicyServerError(LiberoDataError, ConnectionError):
 
 class RunError(LiberoDataError, ValueError):
     """A benchmark run cannot go on (a run folder of another run, a missing rollout, ...)."""
+
+
+class CheckpointError(LiberoDataError, ValueError):
+    """A checkpoint cannot be opened: not ours, damaged, of another policy, or a pickle we refuse."""
+
+
+class PolicyFolderError(LiberoDataError, ValueError):
+    """A LeRobot policy folder is damaged: its config, weights or processors cannot be read."""

@@ -4,6 +4,7 @@ machinery in the runtime core only, and modules and functions small enough to re
 from __future__ import annotations
 
 import ast
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -142,3 +143,21 @@ def test_modules_and_functions_stay_readable() -> None:
                     long_functions.append(f"{module}.{node.name}: {lines} lines")
     assert long_modules == []
     assert long_functions == []
+
+
+def test_nothing_we_open_is_unpickled() -> None:
+    """Checkpoints, run folders, datasets and messages are opened without unpickling; only
+    libero_bench.migrate reads an earlier version's pickles, with torch's restricted loader."""
+    forbidden = re.compile(
+        r"weights_only\s*=\s*False|pickle\.loads?\(|allow_pickle\s*=\s*True|cloudpickle|\bdill\b|"
+        r"joblib|read_pickle|np\.load\([^)]*allow_pickle\s*=\s*True|torch\.load\("
+    )
+    sources = [*MODULES.values(), *sorted((ROOT / "plugins").rglob("*.py"))]
+    offenders = []
+    for path in sources:
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            found = forbidden.search(line)
+            allowed = path.name == "migrate.py" and "torch.load(" in line and "weights_only=True" in line
+            if found and not allowed:
+                offenders.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()}")
+    assert offenders == []

@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from libero_bench.cli import policy, results, robustness, run, saliency
+from libero_bench.cli import migrate, policy, results, robustness, run, saliency
 from libero_data.cli.common import user_errors
 
 app = typer.Typer(
@@ -53,6 +53,7 @@ app.command("serve")(policy.serve_cmd)
 app.command("replay")(results.replay_cmd)
 app.command("saliency")(saliency.saliency_cmd)
 app.command("robustness")(robustness.robustness_cmd)
+app.command("migrate")(migrate.migrate_cmd)
 
 
 def main() -> None:

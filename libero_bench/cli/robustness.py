@@ -113,10 +113,9 @@ def robustness_cmd(
         replan_steps=replan_steps,
     )
     execution = Execution(workers, batch_size, executor, ray_address, device)
-    if server is not None:  # an unreachable server: one sentence before any output
-        from libero_bench.rollouts.sources import policy_source
+    from libero_bench.rollouts.sources import check_policy
 
-        policy_source(reference, image_size, replan_steps)
+    check_policy(reference, image_size, replan_steps)  # one sentence before any output
     with rollout_progress() as (done, total):
         sweep(reference, request, out, execution=execution, on_result=done, on_total=total)
     say((out / f"{REPORT}.md").read_text())

@@ -75,7 +75,7 @@ def run_cmd(
     init_checkpoint: Annotated[
         Path | None,
         typer.Option(
-            "--init-checkpoint", help="Start from these policy weights (a run's checkpoints/task_NNN.pt)."
+            "--init-checkpoint", help="Start from these weights (a run's task_NNN.safetensors, or bare)."
         ),
     ] = None,
     overrides: Annotated[

@@ -62,3 +62,24 @@ def policy_source(policy: str, image_size: int | None = None, replan_steps: int 
         {k: list(v) for k, v in {**inputs.cameras, **inputs.states}.items()},
         lambda device: LeRobotActor(folder, device),
     )
+
+
+def check_policy(policy: str, image_size: int | None = None, replan_steps: int = 5) -> None:
+    """One sentence, before anything is written or shown, where ``policy`` cannot be evaluated:
+    a run folder with no finished task or a damaged or pickled checkpoint, a LeRobot folder with a
+    bad config or weights, an unreachable server."""
+    from libero_bench.run_files import RunFolder
+
+    if not is_server(policy) and RunFolder(Path(policy)).is_run():
+        from libero_bench.checkpoints import kept_checkpoint, read_checkpoint
+        from libero_bench.runs import load_run
+        from libero_data.errors import RunError
+
+        summary = load_run(Path(policy))
+        if summary.tasks_done < 1:
+            raise RunError(
+                f"the run {policy} has not finished learning a task yet: no checkpoint to evaluate"
+            )
+        read_checkpoint(kept_checkpoint(RunFolder(Path(policy)), summary.config, summary.tasks_done - 1))
+        return
+    policy_source(policy, image_size, replan_steps)

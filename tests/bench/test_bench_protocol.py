@@ -14,6 +14,7 @@ import torch
 
 from libero_bench import evaluate
 from libero_bench.algos import ALGOS
+from libero_bench.checkpoints import read_checkpoint
 from libero_bench.presets import SMOKE
 from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
 from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
@@ -89,7 +90,7 @@ def test_protocol(algo: str, tiny_dataset: Path, tmp_path: Path, scripted: type[
     results = _trainer(tiny_dataset, tmp_path / "run", algo).run()
     assert results.complete and results.stage == ["done", "done"]
     assert results.eval_epochs == [0, 1, 2]
-    checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "task_000.pt", weights_only=False)
+    checkpoint = read_checkpoint(tmp_path / "run" / "checkpoints" / "task_000.safetensors")
     policy_digest = sum(v.double().sum() for v in checkpoint["policy"].values() if v.is_floating_point())
     if ALGOS.get(algo).needs_all_tasks:
         # one multitask training, every task evaluated at every epoch, best mean kept (epoch 1)
@@ -98,7 +99,7 @@ def test_protocol(algo: str, tiny_dataset: Path, tmp_path: Path, scripted: type[
         assert results.after == [[1.0, 0.5], [1.0, 0.5]]
         assert results.curve_heldout == HELDOUT_CURVE
         assert results.after_heldout == [[1.0, 1.0], [1.0, 1.0]]  # the kept epoch's, not the best
-        assert not (tmp_path / "run" / "checkpoints" / "task_001.pt").exists()
+        assert not (tmp_path / "run" / "checkpoints" / "task_001.safetensors").exists()
         kept = [c["digest"] for c in scripted.calls if c["epoch"] == 1]
         assert float(policy_digest) == pytest.approx(kept[0], rel=1e-12)
         return
@@ -146,7 +147,7 @@ def test_resume_after_the_checkpoint_redoes_only_the_after_task_evaluations(
     assert [c["phase"] for c in scripted.calls] == ["after", "after", "after"]
     assert again.to_dict() == first.to_dict()
     # the digest of the weights used for the after-task evaluation is the saved checkpoint's
-    checkpoint = torch.load(out / "checkpoints" / "task_001.pt", weights_only=False)
+    checkpoint = read_checkpoint(out / "checkpoints" / "task_001.safetensors")
     digest = float(sum(v.double().sum() for v in checkpoint["policy"].values() if v.is_floating_point()))
     assert scripted.calls[0]["digest"] == pytest.approx(digest, rel=1e-12)
 
@@ -161,8 +162,8 @@ def test_a_run_folder_refuses_other_settings(tiny_dataset: Path, tmp_path: Path,
 def test_a_run_starts_from_another_runs_weights(tiny_dataset: Path, tmp_path: Path, scripted: Any) -> None:
     # The paper's pretraining study: MTL first, then a lifelong run from its weights.
     _trainer(tiny_dataset, tmp_path / "mtl", "mtl").run()
-    weights = tmp_path / "mtl" / "checkpoints" / "task_000.pt"
-    start = torch.load(weights, weights_only=False)["policy"]
+    weights = tmp_path / "mtl" / "checkpoints" / "task_000.safetensors"
+    start = read_checkpoint(weights)["policy"]
     digest = float(sum(v.double().sum() for v in start.values() if v.is_floating_point()))
     scripted.calls = []
     request = RunRequest(

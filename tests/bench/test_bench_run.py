@@ -111,7 +111,7 @@ def test_run_folder_and_results(bench_run: Path) -> None:
     starts = config["evaluation"]["training_starts"]
     assert all(s["recorded"] and s["stored_eval_starts_trained_on"] == [] for s in starts.values())
     for k in range(2):
-        assert (bench_run / "checkpoints" / f"task_{k:03d}.pt").is_file()
+        assert (bench_run / "checkpoints" / f"task_{k:03d}.safetensors").is_file()
 
 
 def test_rollout_dataset_loads_and_matches_the_success_matrix(bench_run: Path) -> None:
@@ -314,7 +314,7 @@ def test_resume_after_sigkill_gives_the_same_results(
     proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     deadline = time.monotonic() + 600
     try:
-        while not (out / "checkpoints" / "task_000.pt").is_file():
+        while not (out / "checkpoints" / "task_000.safetensors").is_file():
             assert proc.poll() is None, "the run ended before its first checkpoint"
             assert time.monotonic() < deadline
             time.sleep(0.1)
@@ -323,7 +323,7 @@ def test_resume_after_sigkill_gives_the_same_results(
         proc.wait()
     partial = _results(out)
     assert not partial["complete"] and partial["stage"][1] == ""
-    assert not (out / "checkpoints" / "task_001.pt").exists()
+    assert not (out / "checkpoints" / "task_001.safetensors").exists()
 
     result = bench("run", "--data", str(tiny_dataset), *RUN_ARGS, "--workers", "2", "--out", str(out))
     assert result.returncode == 0, result.stderr[-3000:]
@@ -439,8 +439,8 @@ def test_a_task_interrupted_between_epochs_goes_on_after_its_last_finished_epoch
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-    state = out / "checkpoints" / "task_000.epoch.pt"
-    assert state.is_file() and not (out / "checkpoints" / "task_000.pt").exists()
+    state = out / "checkpoints" / "task_000.epoch.safetensors"
+    assert state.is_file() and not (out / "checkpoints" / "task_000.safetensors").exists()
     result = bench("run", *args, "--out", str(out))
     assert result.returncode == 0, result.stderr[-3000:]
     assert "resuming after epoch" in (out / "run.log").read_text()
@@ -449,6 +449,8 @@ def test_a_task_interrupted_between_epochs_goes_on_after_its_last_finished_epoch
     ours, theirs = _results(out), _results(reference)
     assert ours["losses"] == theirs["losses"] and ours["curve"] == theirs["curve"]
     assert ours["rollouts"] == theirs["rollouts"]
-    a = torch.load(out / "checkpoints" / "task_000.pt", weights_only=False)["policy"]
-    b = torch.load(reference / "checkpoints" / "task_000.pt", weights_only=False)["policy"]
+    from libero_bench.checkpoints import read_checkpoint
+
+    a = read_checkpoint(out / "checkpoints" / "task_000.safetensors")["policy"]
+    b = read_checkpoint(reference / "checkpoints" / "task_000.safetensors")["policy"]
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)

@@ -1,0 +1,252 @@
+"""Nothing libero-bench opens runs code: checkpoints are safetensors with a JSON header, pickles
+are refused by every command in one sentence, and `libero-bench migrate` converts an earlier
+version's run folder (with torch's restricted loader, which refuses code as well)."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import random
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import torch
+from typer.testing import CliRunner
+
+from libero_bench import evaluate
+from libero_bench.checkpoints import CHECKPOINT, EPOCH_STATE, read_checkpoint
+from libero_bench.cli import app
+from libero_bench.migrate import migrate
+from libero_bench.presets import SMOKE
+from libero_bench.state_files import is_pickle, load_state, load_weights, save_state
+from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
+from libero_data.errors import CheckpointError
+
+PRESET = SMOKE.replace(epochs=1, batch_size=32, image_size=32, language_encoder="task_id")
+
+
+class _Evil:
+    """Unpickling this runs ``touch MARKER``."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (os.system, (f"touch {self.marker}",))
+
+
+def _evil_pickle(path: Path, marker: Path, *, torch_save: bool = False) -> Path:
+    """A checkpoint-like pickle whose loading runs code: written by torch.save, or by pickle."""
+    content = {"policy": _Evil(marker), "algo": {}}
+    if torch_save:
+        torch.save(content, path)
+    else:
+        path.write_bytes(pickle.dumps(content))
+    return path
+
+
+class _Succeeds:
+    """Stands in for the rollout evaluator: every rollout succeeds in 3 steps (no simulation)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def __enter__(self) -> _Succeeds:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def describe(self) -> dict[str, object]:
+        return {"batch_size": 1, "executor": "local", "workers": 0}
+
+    def run(self, policy: Any, jobs: list[Any], on_result: Any = None) -> list[Any]:
+        from libero_bench.rollouts.jobs import RolloutResult
+
+        return [RolloutResult(job.key, True, 3, 0.0) for job in jobs]
+
+
+def _request(data: Path, **kwargs: Any) -> RunRequest:
+    return RunRequest(data=data, algo="er", policy="resnet_t", preset=PRESET, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def er_run(tiny_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished two-task ER run (its checkpoints hold replay memories keyed by task number)."""
+    out = tmp_path_factory.mktemp("safe") / "run"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(evaluate, "Evaluator", _Succeeds)
+        patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
+        Trainer(plan_run(_request(tiny_dataset)), out, RunOptions(workers=0)).run()
+    return out
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, torch.Tensor):
+        return isinstance(b, torch.Tensor) and a.dtype == b.dtype and torch.equal(a, b)
+    if isinstance(a, np.ndarray):
+        return isinstance(b, np.ndarray) and a.dtype == b.dtype and np.array_equal(a, b)
+    if isinstance(a, dict):
+        return isinstance(b, dict) and list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) and a != a:
+        return isinstance(b, float) and b != b
+    return type(a) is type(b) and a == b
+
+
+def test_a_state_comes_back_as_it_was(tmp_path: Path) -> None:
+    model = torch.nn.Linear(3, 2)
+    optimiser = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    model(torch.ones(1, 3)).sum().backward()
+    optimiser.step()  # optimiser state: int keys, tuples of betas, step tensors
+    state = {
+        "policy": model.state_dict(),
+        "optimiser": optimiser.state_dict(),
+        "memories": {0: {"x": torch.arange(6, dtype=torch.uint8)}, 3: {}},
+        "rng": {
+            "torch": torch.get_rng_state(),
+            "numpy": np.random.get_state(),
+            "python": random.getstate(),
+            "pcg": np.random.default_rng(7).bit_generator.state,  # 128-bit integers
+        },
+        "best_rate": -float("inf"),
+        "nan": float("nan"),
+        "half": torch.ones(2, dtype=torch.bfloat16),
+        "empty": np.zeros((0, 3), dtype=np.float32),
+        "nothing": None,
+        "losses": [{"epoch": 0, "total": np.float64(0.5)}],
+    }
+    path = save_state(tmp_path / "state.safetensors", state, kind=EPOCH_STATE)
+    back = load_state(path, kind=EPOCH_STATE)
+    state["losses"] = [{"epoch": 0, "total": 0.5}]  # NumPy scalars come back as Python numbers
+    assert _same(state, back)
+    # what it holds is checked before anything is used
+    with pytest.raises(
+        CheckpointError, match="holds a libero-bench epoch state, not a libero-bench checkpoint"
+    ):
+        load_state(path, kind=CHECKPOINT)
+    with pytest.raises(TypeError, match="cannot be stored"):
+        save_state(tmp_path / "bad.safetensors", {"x": object()}, kind=CHECKPOINT)
+
+
+def test_bare_weights_and_damaged_files(tmp_path: Path) -> None:
+    from safetensors.torch import save_file
+
+    bare = tmp_path / "model.safetensors"
+    save_file({"weight": torch.ones(2, 2)}, str(bare))
+    assert torch.equal(load_weights(bare)["weight"], torch.ones(2, 2))
+    truncated = tmp_path / "truncated.safetensors"
+    truncated.write_bytes(bare.read_bytes()[:40])
+    with pytest.raises(CheckpointError, match=r"truncated.safetensors is not a safetensors file"):
+        load_weights(truncated)
+    with pytest.raises(CheckpointError, match="holds bare weights, not a libero-bench checkpoint"):
+        read_checkpoint(bare)
+    legacy = tmp_path / "task_000.pt"
+    torch.save({"weight": torch.ones(1)}, legacy)
+    assert is_pickle(legacy)
+    with pytest.raises(CheckpointError, match=r"is a pickled torch checkpoint; .*libero-bench migrate"):
+        load_weights(legacy)
+
+
+def _cli(*args: str | Path) -> Any:
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def _one_sentence(result: Any) -> str:
+    lines = result.stderr.strip().splitlines()
+    assert result.exit_code == 2, (result.exit_code, result.output)
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in result.output, (
+        result.stderr
+    )
+    return str(lines[0])
+
+
+def test_a_pickle_that_runs_code_is_never_opened(er_run: Path, tiny_dataset: Path, tmp_path: Path) -> None:
+    marker = tmp_path / "ran-code"
+    # The payload works: unpickling it creates the marker.
+    probe = _evil_pickle(tmp_path / "probe.pt", marker, torch_save=True)
+    load = f"import torch; torch.load({str(probe)!r}, weights_only=False)"
+    subprocess.run([sys.executable, "-c", load], check=True)
+    assert marker.exists()
+    marker.unlink()
+    evil = _evil_pickle(tmp_path / "evil.pt", marker, torch_save=True)
+    disguised = _evil_pickle(tmp_path / "weights.safetensors", marker)
+    run = tmp_path / "shared-run"
+    shutil.copytree(er_run, run)
+    (run / "checkpoints" / "task_001.safetensors").unlink()
+    _evil_pickle(run / "checkpoints" / "task_001.pt", marker)
+    train = ("run", "--data", tiny_dataset, "--preset", "smoke", "--set", "language_encoder=task_id")
+    commands = {
+        "run --init-checkpoint": (*train, "--init-checkpoint", evil, "--out", tmp_path / "new"),
+        "run --init-checkpoint (renamed)": (
+            *train,
+            "--init-checkpoint",
+            disguised,
+            "--out",
+            tmp_path / "new",
+        ),
+        "run (resume)": (*train, "--out", run),
+        "robustness": ("robustness", run, "--tasks", "libero_goal/0", "--out", tmp_path / "sweep"),
+        "saliency": ("saliency", run, "--task", "0", "--out", tmp_path / "saliency"),
+        "serve": ("serve", run, "--port", "1"),
+        "eval": ("eval", run, "--tasks", "libero_goal/0", "--out", tmp_path / "eval"),
+        "migrate (folder)": ("migrate", run),
+        "migrate (file)": ("migrate", evil, "--out", tmp_path / "converted.safetensors"),
+    }
+    sentences = {}
+    for name, args in commands.items():
+        sentences[name] = _one_sentence(_cli(*args))
+        assert not marker.exists(), f"{name} ran the pickle's code"
+    for name in ("run --init-checkpoint", "run (resume)", "robustness", "saliency", "serve"):
+        assert "pickled" in sentences[name] and "libero-bench migrate" in sentences[name], sentences[name]
+    assert "cannot be read as a checkpoint of tensors" in sentences["migrate (file)"]
+    assert "it would call posix.system" in sentences["migrate (file)"], sentences["migrate (file)"]
+    # nothing was written
+    for made in ("new", "sweep", "saliency", "eval", "converted.safetensors"):
+        assert not (tmp_path / made).exists(), made
+    assert (run / "checkpoints" / "task_001.pt").is_file()  # a refused migrate leaves the folder as it was
+
+
+def test_an_earlier_runs_pickles_are_migrated(er_run: Path, tiny_dataset: Path, tmp_path: Path) -> None:
+    run = tmp_path / "earlier"
+    shutil.copytree(er_run, run)
+    originals = {}
+    for path in sorted((run / "checkpoints").glob("*.safetensors")):
+        originals[path.name] = read_checkpoint(path)
+        torch.save(originals[path.name], path.with_suffix(".pt"))  # what the earlier writer made
+        path.unlink()
+    assert set(originals) == {"task_000.safetensors", "task_001.safetensors"}
+    trainer = Trainer(plan_run(_request(tiny_dataset)), run, RunOptions(workers=0))
+    with pytest.raises(CheckpointError, match=r"holds pickled checkpoints \(task_000.pt, task_001.pt\)"):
+        trainer.prepare()
+    converted = migrate(run)
+    assert [c.target.name for c in converted] == sorted(originals)
+    assert not list((run / "checkpoints").glob("*.pt"))
+    for name, original in originals.items():
+        assert _same(original, read_checkpoint(run / "checkpoints" / name))
+    assert original["algo"]["memories"].keys() == {0, 1}  # ER's memories, keyed by task number
+    # the migrated run reads as before: finished, nothing redone
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(evaluate, "Evaluator", _Succeeds)
+        patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
+        again = Trainer(plan_run(_request(tiny_dataset)), run, RunOptions(workers=0)).run()
+    assert again.complete
+
+
+def test_initial_weights_must_fit_the_policy(er_run: Path, tiny_dataset: Path, tmp_path: Path) -> None:
+    from safetensors.torch import save_file
+
+    weights = read_checkpoint(er_run / "checkpoints" / "task_000.safetensors")["policy"]
+    bare = tmp_path / "bare.safetensors"
+    save_file({k: v.contiguous() for k, v in weights.items()}, str(bare))
+    plan_run(_request(tiny_dataset, init_checkpoint=bare))  # bare weights of this policy: accepted
+    wrong = tmp_path / "wrong.safetensors"
+    save_file({"layer.weight": torch.ones(2)}, str(wrong))
+    with pytest.raises(ValueError, match=r"wrong.safetensors does not fit the resnet_t policy"):
+        plan_run(_request(tiny_dataset, init_checkpoint=wrong))
