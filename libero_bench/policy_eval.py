@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import shutil
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -168,8 +169,11 @@ def evaluate_policy(
     on_total: Callable[[int], None] | None = None,
     heldout_seeds: Mapping[str, Sequence[int]] | None = None,
     source: PolicySource | None = None,
+    keep_work: bool = False,
 ) -> dict[str, Any]:
-    """Evaluate (or go on evaluating) the policy into ``out``; returns the summary.
+    """Evaluate (or go on evaluating) the policy into ``out``; returns the summary. Once every
+    rollout is in ``rollouts/`` the work files (``.work/``: per-rollout shards) are removed
+    unless ``keep_work``; the same command on the finished folder then rewrites the report only.
 
     ``heldout_seeds`` (task name -> seeds) replaces a task's own held-out placements, so that
     variants of one task are rolled out from the same placements (libero_bench.robustness);
@@ -216,7 +220,8 @@ def evaluate_policy(
     saved = json.loads(results_path.read_text()) if results_path.is_file() else {}
     done = saved.get("rollouts", [])
     sessions = saved.get("sessions", [])
-    finished = {r["key"] for r in done if (folder.shard(r["key"]) / "episode.json").is_file()}
+    joined = bool(saved.get("complete")) and (folder.rollouts / "meta" / "info.json").is_file()
+    finished = {r["key"] for r in done if joined or (folder.shard(r["key"]) / "episode.json").is_file()}
     jobs = [j for j in _jobs(request, eval_tasks, source.render_size, width, folder) if j.key not in finished]
     records = [r for r in done if r["key"] in finished]
     if on_total:
@@ -230,7 +235,9 @@ def evaluate_policy(
         results_path,
         {"rollouts": records, "complete": True, "sessions": sessions, "versions": versions(python=True)},
     )
-    _finish(folder, settings, records, summary)
+    _finish(folder, settings, records, summary, rollouts=bool(jobs) or not joined)
+    if not keep_work:
+        shutil.rmtree(folder.work, ignore_errors=True)
     return summary
 
 
@@ -353,9 +360,23 @@ def markdown(summary: dict[str, Any]) -> str:
 
 
 def _finish(
-    folder: RunFolder, settings: dict[str, Any], records: list[dict[str, Any]], summary: dict[str, Any]
+    folder: RunFolder,
+    settings: dict[str, Any],
+    records: list[dict[str, Any]],
+    summary: dict[str, Any],
+    *,
+    rollouts: bool = True,
 ) -> None:
-    """The rollout dataset, the report (Markdown, JSON) and its chart."""
+    """The rollout dataset (unless it holds every rollout already), the report (Markdown, JSON)
+    and its chart."""
+    if rollouts:
+        _join_rollouts(folder, settings, records)
+    write_text(folder.root / "report.md", markdown(summary))
+    write_json(folder.root / "report.json", summary)
+    _chart(summary, folder.root / "success.png")
+
+
+def _join_rollouts(folder: RunFolder, settings: dict[str, Any], records: list[dict[str, Any]]) -> None:
     from libero_bench.rollout_dataset import build_rollout_dataset
 
     keys = sorted(r["key"] for r in records)
@@ -372,9 +393,6 @@ def _finish(
     build_rollout_dataset(
         [folder.shard(k) for k in keys], folder.rollouts, run_meta=meta, bddl=bddl, work_dir=folder.work
     )
-    write_text(folder.root / "report.md", markdown(summary))
-    write_json(folder.root / "report.json", summary)
-    _chart(summary, folder.root / "success.png")
 
 
 def _chart(summary: dict[str, Any], path: Path) -> None:

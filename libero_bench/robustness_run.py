@@ -11,6 +11,7 @@ read back, not run again.
 from __future__ import annotations
 
 import json
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -32,8 +33,10 @@ def run_outcomes(
     execution: Execution,
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
+    keep_work: bool = False,
 ) -> tuple[dict[str, list[bool]], str]:
-    """Outcomes (in rollout order) per cell name, and the policy's name for the report."""
+    """Outcomes (in rollout order) per cell name, and the policy's name for the report. Once the
+    rollouts are joined in ``out/rollouts`` their shards are removed unless ``keep_work``."""
     from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
     from libero_bench.data import DemoDataset
     from libero_bench.language import encode_tasks
@@ -61,15 +64,21 @@ def run_outcomes(
     last = summary.tasks_done - 1
     folder = RunFolder(run)
     results_path = out / "results.json"
-    done = {
-        r["key"]: r
-        for r in (json.loads(results_path.read_text())["rollouts"] if results_path.is_file() else [])
-    }
+    saved = json.loads(results_path.read_text()) if results_path.is_file() else {}
+    done = {r["key"]: r for r in saved.get("rollouts", [])}
+    joined = bool(saved.get("complete")) and (out / "rollouts" / "meta" / "info.json").is_file()
     records = dict(done)
     # Distractors add objects and a swap may bring another body: the widest state sets the width.
     width = max([source.sim_state_width, *(state_width(c.bddl) for c in live if c.kind in WIDER_KINDS)])
     jobs_by_position = _jobs(
-        live, names, embeddings[len(languages) :], seeds, request, done, out, preset, width
+        live,
+        names,
+        embeddings[len(languages) :],
+        seeds,
+        request,
+        done if joined else _stored(done, out),
+        preset,
+        width,
     )
     if on_total:
         on_total(len(done) + sum(len(j) for j in jobs_by_position.values()))
@@ -96,7 +105,14 @@ def run_outcomes(
             actor = PolicyActor(policy.to(device))
             for _index, result in environments.run(actor, jobs):
                 seen(result)
-    _join(run, out, records, live, config, request)
+    if jobs_by_position or not joined:
+        _join(run, out, records, live, config, request)
+        write_json(
+            results_path, {"rollouts": sorted(records.values(), key=lambda r: r["key"]), "complete": True}
+        )
+    if not keep_work:
+        for work in (out / "shards", out / ".work"):
+            shutil.rmtree(work, ignore_errors=True)
     outcomes: dict[str, list[bool]] = {}
     for record in sorted(records.values(), key=lambda r: (r["task"], r["rollout"])):
         outcomes.setdefault(record["task"], []).append(bool(record["success"]))
@@ -110,7 +126,6 @@ def _jobs(
     seeds: dict[str, tuple[int, ...]],
     request: SweepRequest,
     done: dict[str, Any],
-    out: Path,
     preset: dict[str, Any],
     width: int,
 ) -> dict[int, list[Any]]:
@@ -131,7 +146,7 @@ def _jobs(
         )
         for r in range(request.rollouts):
             key = f"{cell.name}-h{r:03d}"
-            if key in done and (out / "shards" / key / "episode.json").is_file():
+            if key in done:
                 continue
             jobs_by_position.setdefault(position, []).append(
                 make_job(
@@ -155,6 +170,11 @@ def _jobs(
                 )
             )
     return jobs_by_position
+
+
+def _stored(done: dict[str, Any], out: Path) -> dict[str, Any]:
+    """The finished rollouts whose shard is on disk (the others run again)."""
+    return {k: r for k, r in done.items() if (out / "shards" / k / "episode.json").is_file()}
 
 
 def _join(

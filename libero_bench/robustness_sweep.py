@@ -30,9 +30,10 @@ def sweep(
     execution: Execution | None = None,
     on_result: Callable[[Any], None] | None = None,
     on_total: Callable[[int], None] | None = None,
+    keep_work: bool = False,
 ) -> dict[str, Any]:
     """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
-    policy server, ``ws://HOST:PORT``)."""
+    policy server, ``ws://HOST:PORT``); ``keep_work`` keeps the rollouts' shards once joined."""
     from libero_bench.rollouts.sources import check_policy, is_server
     from libero_bench.run_files import RunFolder
     from libero_data.runtime.versions import versions
@@ -45,9 +46,13 @@ def sweep(
     if not is_server(ref) and RunFolder(Path(ref)).is_run():
         from libero_bench.robustness_run import run_outcomes
 
-        outcomes, name = run_outcomes(Path(ref), request, cells, out, execution, on_result, on_total)
+        outcomes, name = run_outcomes(
+            Path(ref), request, cells, out, execution, on_result, on_total, keep_work
+        )
     else:
-        outcomes, name = _lerobot_outcomes(ref, request, cells, out, execution, on_result, on_total)
+        outcomes, name = _lerobot_outcomes(
+            ref, request, cells, out, execution, on_result, on_total, keep_work
+        )
     summary = {
         "policy": ref,
         "policy_name": name,
@@ -67,6 +72,7 @@ def _lerobot_outcomes(
     execution: Execution,
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
+    keep_work: bool,
 ) -> tuple[dict[str, list[bool]], str]:
     """Outcomes per cell of a LeRobot policy or a served one (``libero-bench eval`` on the
     variants suite)."""
@@ -93,6 +99,7 @@ def _lerobot_outcomes(
         on_result=on_result,
         on_total=on_total,
         heldout_seeds=by_name,
+        keep_work=keep_work,
     )
     records = json.loads((out / "eval" / "results.json").read_text())["rollouts"]
     outcomes: dict[str, list[bool]] = {}

@@ -63,6 +63,7 @@ def build_rollout_dataset(
     number of episodes. Built beside ``out`` and swapped in, so ``out`` is always complete."""
     import shutil
 
+    from libero_data.pipeline.publish import unstamp
     from libero_data.pipeline.snapshot import build_snapshot
 
     shards = [Path(s) for s in shards]
@@ -91,6 +92,7 @@ def build_rollout_dataset(
             bddl=dict(bddl),
             card=card,
         )
+    unstamp(staging)  # built whole and swapped in: the publishing stamps have no use here
     old = work_dir / "rollouts-old"
     if old.exists():
         shutil.rmtree(old)

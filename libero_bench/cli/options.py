@@ -72,3 +72,13 @@ def policy_or_server(policy: object, server: str | None) -> str:
     if server is not None and not is_server(server):
         raise InputError(f"--server takes a websocket address such as ws://HOST:PORT, got {server!r}")
     return str(server if server is not None else policy)
+
+
+KeepRollouts = Annotated[
+    bool,
+    typer.Option(
+        "--keep-work",
+        help="Keep the work files (each rollout's shard) once the rollouts are joined in rollouts/; by default "
+        "the finished folder holds the results, report, rollouts and recordings only.",
+    ),
+]

@@ -12,6 +12,7 @@ from libero_bench.cli.options import (
     BatchSize,
     Device,
     EnvWorkers,
+    KeepRollouts,
     ReplanSteps,
     SentImageSize,
     Server,
@@ -72,6 +73,7 @@ def eval_cmd(
     image_size: SentImageSize = None,
     replan_steps: ReplanSteps = 5,
     render_quality: RenderQuality = "full",
+    keep_work: KeepRollouts = False,
 ) -> None:
     """Evaluate a LeRobot policy (ACT, Diffusion Policy, SmolVLA, ...) or a served one (--server) in
     simulation: every rollout stored, success with intervals.
@@ -107,7 +109,13 @@ def eval_cmd(
     source = policy_source(request.policy, request.image_size, request.replan_steps)  # before any output
     with rollout_progress() as (done, total):
         summary = evaluate_policy(
-            request, out, execution=execution, on_result=done, on_total=total, source=source
+            request,
+            out,
+            execution=execution,
+            on_result=done,
+            on_total=total,
+            source=source,
+            keep_work=keep_work,
         )
     say(markdown(summary))
     say(

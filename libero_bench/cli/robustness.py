@@ -11,6 +11,7 @@ from libero_bench.cli.options import (
     BatchSize,
     Device,
     EnvWorkers,
+    KeepRollouts,
     ReplanSteps,
     SentImageSize,
     Server,
@@ -75,6 +76,7 @@ def robustness_cmd(
     image_size: SentImageSize = None,
     replan_steps: ReplanSteps = 5,
     render_quality: RenderQuality = "full",
+    keep_work: KeepRollouts = False,
 ) -> None:
     """Evaluate a policy on its tasks perturbed along kinds x levels: a table and a heatmap of success with
     95% intervals, the drop from the unperturbed tasks, and every rollout stored.
@@ -117,6 +119,8 @@ def robustness_cmd(
 
     check_policy(reference, image_size, replan_steps)  # one sentence before any output
     with rollout_progress() as (done, total):
-        sweep(reference, request, out, execution=execution, on_result=done, on_total=total)
+        sweep(
+            reference, request, out, execution=execution, on_result=done, on_total=total, keep_work=keep_work
+        )
     say((out / f"{REPORT}.md").read_text())
     say(f"wrote {out / f'{REPORT}.md'}, {out / f'{REPORT}.json'}, {out / f'{REPORT}.png'}")

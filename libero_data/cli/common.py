@@ -9,6 +9,7 @@ Any other exception is a bug and shows its traceback.
 
 from __future__ import annotations
 
+import errno
 import functools
 import sys
 from collections.abc import Callable, Iterator
@@ -78,8 +79,46 @@ def user_errors[F: Callable[..., Any]](fn: F) -> F:
             raise fail(f"{exc} ({option})" if option else str(exc)) from None
         except KeyboardInterrupt:
             raise fail("interrupted", code=130) from None
+        except OSError as exc:
+            sentence = system_failure(exc)
+            if sentence is None:
+                raise
+            raise fail(sentence) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+#: What to do after each failure the operating system reports; every long command keeps its
+#: finished work in atomically written files, so the same command continues where it stopped.
+_SYSTEM_FAILURES = {
+    errno.ENOSPC: "no space left on the device while writing {what}; free some space and run the same "
+    "command again: finished work is kept and it continues from there",
+    errno.EDQUOT: "the disk quota is exceeded while writing {what}; free some space or raise the quota and "
+    "run the same command again: finished work is kept and it continues from there",
+    errno.EACCES: "permission denied for {what}; choose a folder you may write to (or change its "
+    "permissions) and run the command again",
+    errno.EPERM: "operation not permitted on {what}; choose a folder you may write to and run the command again",
+    errno.EROFS: "{what} is on a read-only file system; choose an output folder on a writable one",
+    errno.EIO: "an input/output error on {what}: the disk or network file system failed; check it and run "
+    "the same command again (finished work is kept)",
+}
+
+
+def system_failure(exc: OSError) -> str | None:
+    """One sentence for a failure of the system rather than of our code (a full disk, a folder
+    without permission, a read-only file system), or None for any other ``OSError``. Libraries that
+    wrap the error (pyarrow: ``[errno 28] ...``) are read from the message."""
+    import re
+
+    code = exc.errno
+    if code is None:
+        found = re.search(r"\[errno (\d+)\]", str(exc), flags=re.IGNORECASE)
+        code = int(found.group(1)) if found else None
+    template = _SYSTEM_FAILURES.get(code) if code is not None else None
+    if template is None:
+        return None
+    where = exc.filename if exc.filename is not None else None
+    return template.format(what=where or "the output")
 
 
 def split_list(items: list[str] | str | None) -> list[str]:

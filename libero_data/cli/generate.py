@@ -232,6 +232,9 @@ def generate_cmd(
         arm_noise=arm_noise,
     )
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    from libero_data.pipeline.generate import check_output
+
+    check_output(request, out)  # a refusal is its sentence alone: no header, no empty progress bar
     say(
         f"generating {len(request.tasks)} task(s) × {request.episodes_per_task} episode(s) of "
         f"{suite or 'libero_object'} into {out} {runner.describe()}"

@@ -36,7 +36,7 @@ def rerender_cmd(
     """
     import os
 
-    from libero_data.pipeline.rerender import rerender, rerender_request
+    from libero_data.pipeline.rerender import check_rerender_output, rerender, rerender_request
     from libero_data.record.features import CAMERAS, PROFILE_IMAGE_SIZE
 
     os.environ.setdefault("SVT_LOG", "1")
@@ -46,6 +46,7 @@ def rerender_cmd(
         dataset.resolve(), image_size=size, features=features, cameras=chosen, render_quality=render_quality
     )
     command = "libero-data rerender " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    check_rerender_output(dataset, out, request)  # a refusal is its sentence alone
     say(
         f"re-rendering {dataset} at {size}x{size} ({', '.join(chosen)}; {features} names; "
         f"{render_quality} quality) into {out}"

@@ -257,17 +257,17 @@ def generate(
     (``.libero-data/``) are removed, so the folder holds the dataset only, ready to upload;
     ``keep_work`` keeps them. Generating a finished dataset again does nothing.
     """
-    from libero_data.pipeline.publish import recover
+    from libero_data.pipeline.publish import recover, unstamp
 
     runner_executor = Executor.processes(workers, executor, ray_address)
     out = Path(out).resolve()
-    done = finished(out, request)
+    done = check_output(request, out)
     if done is not None:
+        unstamp(out)
         if on_progress:
             on_progress(done)
         return done
     folder = WorkFolder(out / DATASET_WORK, "dataset")
-    _check_out_dir(out, folder)
     with folder.locked(owner=out):
         folder.claim(request.to_dict(), name="request.json", owner=out, legacy=LEGACY_REQUEST)
         recover(out, folder.path("publish.json"))
@@ -291,5 +291,21 @@ def generate(
                 run.maybe_publish()
         run.maybe_publish(force=True)
     if run.complete and not keep_work:
+        unstamp(out)
         shutil.rmtree(folder.root, ignore_errors=True)
     return run.progress
+
+
+def check_output(request: GenerateRequest, out: Path) -> Progress | None:
+    """Everything that would refuse ``generate`` into ``out``, checked without writing: another
+    dataset or other settings there, or another process writing it. Returns the finished
+    dataset's progress where ``out`` already holds this request's dataset."""
+    out = Path(out).resolve()
+    done = finished(out, request)
+    if done is not None:
+        return done
+    folder = WorkFolder(out / DATASET_WORK, "dataset")
+    _check_out_dir(out, folder)
+    folder.check_free(owner=out)
+    folder.claim(request.to_dict(), name="request.json", owner=out, legacy=LEGACY_REQUEST, record=False)
+    return None

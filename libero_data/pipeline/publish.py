@@ -70,6 +70,13 @@ def stamp(snapshot: Path, snapshot_id: str) -> None:
             entry.write_text(f"{text}\n\n<!-- libero-data snapshot {snapshot_id} -->\n")
 
 
+def unstamp(dataset: Path) -> None:
+    """Remove the stamps from a finished dataset's folders: they only matter while it grows, and a
+    published or uploaded dataset should not carry hidden files."""
+    for entry in sorted(dataset.glob(f"*/{STAMP}")):
+        entry.unlink(missing_ok=True)
+
+
 def publish(snapshot: Path, dest: Path, journal: Path) -> None:
     """Move the entries of ``snapshot`` into ``dest`` (same file system), replacing old ones."""
     snapshot_id = stamp_of(snapshot / "meta")

@@ -18,7 +18,7 @@ import numpy as np
 
 from libero_data.errors import DatasetError
 from libero_data.pipeline.episodes import search_path
-from libero_data.pipeline.generate import Progress, generate
+from libero_data.pipeline.generate import Progress, check_output, generate
 from libero_data.pipeline.request import LEGACY_REQUEST, GenerateRequest, Slot, slots_of
 from libero_data.pipeline.resimulate import recorded_machines, stored_episode
 from libero_data.pipeline.validate import episode_table
@@ -104,11 +104,10 @@ def rerender(
 ) -> Progress:
     """Render the episodes of ``source`` again into ``out`` (resumes an interrupted run)."""
     source, out = Path(source).resolve(), Path(out).resolve()
-    if source == out:
-        raise DatasetError(f"{out} is the source dataset; choose another output folder")
     request = rerender_request(
         source, image_size=image_size, features=features, cameras=cameras, render_quality=render_quality
     )
+    check_rerender_output(source, out, request)
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     if not (out / "meta" / "libero.json").is_file():  # not finished before
         with folder.locked(owner=out):
@@ -120,3 +119,10 @@ def rerender(
     return generate(
         request, out, workers=workers, on_progress=on_progress, command=command, keep_work=keep_work
     )
+
+
+def check_rerender_output(source: Path, out: Path, request: GenerateRequest) -> None:
+    """What would refuse re-rendering ``source`` into ``out``, checked without writing."""
+    if Path(source).resolve() == Path(out).resolve():
+        raise DatasetError(f"{out} is the source dataset; choose another output folder")
+    check_output(request, out)

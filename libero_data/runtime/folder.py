@@ -39,6 +39,20 @@ class WorkFolder:
     def path(self, *parts: str) -> Path:
         return self.root.joinpath(*parts)
 
+    def check_free(self, owner: Path | None = None) -> None:
+        """:class:`FolderBusy` now if another process holds the lock (nothing is created)."""
+        lock = self.root / "lock"
+        if not lock.is_file():
+            return
+        with lock.open("r") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise FolderBusy(
+                    f"another process is writing the {self.what} in {owner or self.root}"
+                ) from None
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
     @contextlib.contextmanager
     def locked(self, owner: Path | None = None) -> Iterator[None]:
         """Hold the folder's lock for the block; :class:`FolderBusy` if another process has it."""
@@ -64,8 +78,10 @@ class WorkFolder:
         owner: Path | None = None,
         advice: str = "use the same command to continue it, or another output folder",
         legacy: Mapping[str, Any] | None = None,
+        record: bool = True,
     ) -> dict[str, Any] | None:
-        """Record ``settings`` as the folder's, or check them against those recorded.
+        """Record ``settings`` as the folder's, or check them against those recorded
+        (``record=False``: check only, write nothing).
 
         Returns the recorded settings (None on first use). Raises :class:`SettingsChanged`
         naming the keys that differ (``ignore`` lists keys that may change between runs;
@@ -73,7 +89,8 @@ class WorkFolder:
         """
         path = self.root / name
         if not path.is_file():
-            write_json(path, dict(settings), newline=False)
+            if record:
+                write_json(path, dict(settings), newline=False)
             return None
         saved = {**(legacy or {}), **json.loads(path.read_text())}
         changed = changed_keys(saved, settings, ignore)

@@ -298,8 +298,11 @@ def test_robustness_sweep_of_a_smoke_policy(bench_run: Path, tmp_path: Path) -> 
     from libero_data.tasks import get_suite
 
     assert len(get_suite(out / "variants").tasks) == 5
+    # Finished: the rollouts' shards are joined and gone (--keep-work keeps them), no hidden files.
+    assert not (out / "shards").exists() and not list(out.rglob(".*"))
     again = bench("robustness", str(bench_run), *args)  # finished: nothing runs again
     assert again.returncode == 0 and json.loads((out / "robustness.json").read_text()) == summary
+    assert json.loads((out / "rollouts" / "meta" / "info.json").read_text())["total_episodes"] == 10
 
 
 def test_resume_after_sigkill_gives_the_same_results(

@@ -112,6 +112,13 @@ def test_a_served_policy_is_evaluated_as_a_local_one_and_a_dying_server_leaves_a
         np.testing.assert_allclose(there[episode], here[episode], atol=1e-6)
     session = json.loads((tmp_path / "remote" / "results.json").read_text())["sessions"][0]
     assert session["actor"] == "server" and session["batch_size"] == 2 and session["url"] == url
+    # A finished folder holds no work files; the same evaluation again only rewrites the report.
+    assert not list((tmp_path / "local").rglob(".*"))
+    again = evaluate_policy(
+        EvalRequest(str(policy), **request), tmp_path / "local", execution=Execution(workers=0, batch_size=2)
+    )
+    assert again["all"] == local["all"]
+    assert len(json.loads((tmp_path / "local" / "results.json").read_text())["sessions"]) == 1
 
     # The server dies after the first rollout: one sentence naming it; the folder resumes.
     dying = tmp_path / "dying"
