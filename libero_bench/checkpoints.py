@@ -133,7 +133,7 @@ def kept_checkpoint(folder: RunFolder, config: dict[str, Any], position: int) ->
     path = folder.checkpoint(index)
     if not path.is_file():
         name = config["tasks"][position]["name"]
-        raise RunError(f"{folder.root} has no checkpoint after task {name} yet")
+        raise RunError(f"{path} is missing: the run has no checkpoint after task {name}")
     return path
 
 
@@ -143,10 +143,17 @@ def policy_from_checkpoint(config: dict[str, Any], checkpoint: Path, position: i
     from libero_bench.policies import POLICIES, config_from_dict
 
     state = read_checkpoint(checkpoint)
-    pconfig = config_from_dict(config["policy_config"])
-    policy = POLICIES.get(pconfig.name).from_config(pconfig)
-    acfg = algo_config_from_dict(config["algo_config"])
-    algo = ALGOS.get(acfg.name)(acfg)
+    try:
+        pconfig = config_from_dict(config["policy_config"])
+        policy = POLICIES.get(pconfig.name).from_config(pconfig)
+        acfg = algo_config_from_dict(config["algo_config"])
+        algo = ALGOS.get(acfg.name)(acfg)
+    except (KeyError, TypeError, ValueError) as exc:
+        what = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RunError(
+            f"the config.json of the run with {checkpoint} does not describe a policy and algorithm "
+            f"libero-bench can build ({what})"
+        ) from None
     _load_into(checkpoint, policy, algo, state)
     algo.set_eval_task(position)
     return policy.eval(), algo

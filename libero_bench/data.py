@@ -20,7 +20,6 @@ into every worker instead.
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +36,7 @@ from libero_bench.batch_keys import (
 )
 from libero_data.errors import DatasetError, InputError, MissingFileError
 from libero_data.record.features import ACTION, OBS_GRIPPER, OBS_JOINTS, camera_keys_of
+from libero_data.runtime.files import read_json, read_json_lines
 
 if TYPE_CHECKING:
     import torch
@@ -73,6 +73,25 @@ class EpisodeFrames(NamedTuple):
         return int(self.actions.shape[0])
 
 
+def _check_tables(root: Path) -> None:
+    """The dataset's tables are there and readable (their Parquet footers), so that a damaged
+    copy is one sentence here rather than a failure in the middle of training."""
+    import pyarrow.parquet as pq
+
+    for folder in (root / "meta" / "episodes", root / "data"):
+        files = sorted(folder.rglob("*.parquet")) if folder.is_dir() else []
+        if not files:
+            raise DatasetError(
+                f"{folder} is missing or holds no Parquet files: {root} is not a whole dataset"
+            )
+        for path in files:
+            try:
+                pq.read_metadata(path)
+            except Exception as exc:  # pyarrow's errors for a damaged file vary by damage
+                first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+                raise DatasetError(f"{path} is not a readable Parquet file ({first})") from None
+
+
 class DemoDataset:
     """A libero-data (LeRobot v3) dataset on disk: tasks, episodes and decoded frames.
 
@@ -87,8 +106,15 @@ class DemoDataset:
             raise MissingFileError(f"dataset folder {self.root} does not exist")
         if not info_path.is_file():
             raise DatasetError(f"{self.root} is not a LeRobot dataset (no meta/info.json)")
-        self.info: dict[str, Any] = json.loads(info_path.read_text())
-        features = self.info.get("features", {})
+        self.info: dict[str, Any] = read_json(info_path, required=("features", "fps", "total_episodes"))
+        version = str(self.info.get("codebase_version", ""))
+        if not version.startswith("v3."):
+            raise DatasetError(
+                f"{info_path} says LeRobot dataset format {version or '(none)'}; libero-bench reads v3.x "
+                "(convert older datasets with lerobot's convert_dataset_v21_to_v30)"
+            )
+        _check_tables(self.root)
+        features = self.info["features"]
         cameras = camera_keys_of(features)  # either naming profile
         missing = [f"the {c} camera" for c in CAMERA_INPUTS.values() if c not in cameras]
         missing += [f for f in REQUIRED_FEATURES if f not in features]
@@ -104,7 +130,7 @@ class DemoDataset:
         self.image_size = int(shape[0])
         self.fps = float(self.info["fps"])
         meta_path = self.root / "meta" / "libero.json"
-        self.libero_meta: dict[str, Any] = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+        self.libero_meta: dict[str, Any] = read_json(meta_path) if meta_path.is_file() else {}
         request = self.libero_meta.get("request", {})
         self.repo_id = str(request.get("repo_id") or f"local/{self.root.name}")
         self.suite = str(request.get("suite") or self.libero_meta.get("suite") or "")
@@ -132,7 +158,7 @@ class DemoDataset:
         path = self.root / "meta" / "libero_episodes.jsonl"
         total = int(self.info.get("total_episodes", 0))
         if path.is_file():
-            rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+            rows = read_json_lines(path)
             by_index = {int(r.get("episode_index", i)): r for i, r in enumerate(rows)}
             if sorted(by_index) == list(range(total)):
                 return [by_index[i] for i in range(total)]

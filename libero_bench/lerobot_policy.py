@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from libero_data.errors import InputError, MissingFileError, PolicyFolderError
+from libero_data.runtime.files import read_json
 
 #: Camera input names -> our cameras.
 CAMERA_NAMES = {
@@ -112,6 +113,7 @@ def policy_config(path: Path) -> Any:
             f"{path} is not a LeRobot policy folder (no config.json); give the pretrained_model/ folder "
             "lerobot-train writes"
         )
+    read_json(path / "config.json")  # not JSON at all: one sentence naming the line
     try:
         config = PreTrainedConfig.from_pretrained(str(path))
     except Exception as exc:  # draccus, JSON and type errors alike: the file is not a policy config

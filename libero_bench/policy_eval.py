@@ -15,7 +15,6 @@ task's success with n and a 95% Wilson interval. The folder resumes after an int
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import shutil
 from collections.abc import Callable, Mapping, Sequence
@@ -32,7 +31,7 @@ from libero_bench.rollouts.sources import PolicySource, is_server, policy_source
 from libero_bench.run_files import HELDOUT, STARTS, STORED, RunFolder
 from libero_data.errors import InputError
 from libero_data.pipeline.request import state_width
-from libero_data.runtime.files import write_json, write_text
+from libero_data.runtime.files import read_json, write_json, write_text
 from libero_data.runtime.folder import WorkFolder
 
 EVAL_FORMAT = "libero-bench-eval/1"
@@ -102,7 +101,8 @@ def training_starts(policy: Path) -> tuple[str | None, dict[str, tuple[set[int],
     path = policy / "train_config.json"
     if not path.is_file():
         return None, {}
-    root = (json.loads(path.read_text()).get("dataset") or {}).get("root")
+    config = read_json(path)
+    root = ((config.get("dataset") if isinstance(config, dict) else None) or {}).get("root")
     if not root or not Path(root).is_dir():
         return root, {}
     try:
@@ -217,7 +217,7 @@ def evaluate_policy(
         advice="use the same command or another output folder",
     )
     results_path = folder.results
-    saved = json.loads(results_path.read_text()) if results_path.is_file() else {}
+    saved = read_json(results_path, required=("rollouts",)) if results_path.is_file() else {}
     done = saved.get("rollouts", [])
     sessions = saved.get("sessions", [])
     joined = bool(saved.get("complete")) and (folder.rollouts / "meta" / "info.json").is_file()

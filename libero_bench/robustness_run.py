@@ -10,7 +10,6 @@ read back, not run again.
 
 from __future__ import annotations
 
-import json
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -43,7 +42,7 @@ def run_outcomes(
     from libero_bench.rollouts.actors import PolicyActor
     from libero_bench.run_files import RunFolder
     from libero_bench.runs import load_run
-    from libero_data.runtime.files import write_json
+    from libero_data.runtime.files import read_json, write_json
 
     summary = load_run(run)
     config = summary.config
@@ -64,7 +63,7 @@ def run_outcomes(
     last = summary.tasks_done - 1
     folder = RunFolder(run)
     results_path = out / "results.json"
-    saved = json.loads(results_path.read_text()) if results_path.is_file() else {}
+    saved = read_json(results_path, required=("rollouts",)) if results_path.is_file() else {}
     done = {r["key"]: r for r in saved.get("rollouts", [])}
     joined = bool(saved.get("complete")) and (out / "rollouts" / "meta" / "info.json").is_file()
     records = dict(done)

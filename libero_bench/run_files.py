@@ -26,7 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from libero_bench.state_files import MIGRATE_HINT
-from libero_data.errors import CheckpointError, InputError, RunError
+from libero_data.errors import CheckpointError, FileFormatError, InputError, RunError
+from libero_data.runtime.files import read_json
 
 CONFIG = "config.json"
 RESULTS = "results.json"
@@ -37,6 +38,18 @@ ROLLOUTS = "rollouts"
 RRD = "rrd"
 WORK = ".work"
 RUN_FORMAT = "libero-bench-run/1"
+#: What every reader of a run's config.json uses.
+CONFIG_FIELDS = (
+    "format",
+    "data",
+    "tasks",
+    "algo",
+    "algo_config",
+    "policy",
+    "policy_config",
+    "preset",
+    "seed",
+)
 
 LEARNING, PRUNED, AFTER = "learning", "pruned", "after"
 #: Where evaluation rollouts start: LIBERO's stored init states (the paper's protocol), or
@@ -269,17 +282,30 @@ class RunFolder:
             return False
 
     def read_config(self) -> dict[str, Any]:
+        """The run's ``config.json``, checked for the fields every reader uses."""
         if not self.config.is_file():
             raise RunError(f"{self.root} is not a libero-bench run folder (no {CONFIG})")
-        data = json.loads(self.config.read_text())
-        if data.get("format") != RUN_FORMAT:
+        data = read_json(self.config)
+        if not isinstance(data, dict) or data.get("format") != RUN_FORMAT:
             raise RunError(f"{self.config} is not a {RUN_FORMAT} config")
+        data = read_json(self.config, required=CONFIG_FIELDS)
+        tasks = data["tasks"]
+        if not isinstance(tasks, list) or not all(isinstance(t, dict) and "name" in t for t in tasks):
+            raise FileFormatError(f"{self.config}: 'tasks' is not a list of tasks with their names")
+        for key in ("policy_config", "algo_config", "preset"):
+            if not isinstance(data[key], dict):
+                raise FileFormatError(f"{self.config}: {key!r} is not an object")
         return dict(data)
 
     def read_results(self) -> RunResults:
         if not self.results.is_file():
             raise RunError(f"{self.root} has no results yet ({RESULTS} is missing)")
-        return RunResults.from_dict(json.loads(self.results.read_text()))
+        data = read_json(self.results)
+        try:
+            return RunResults.from_dict(data)
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            what = f"field {exc.args[0]!r} missing" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
+            raise FileFormatError(f"{self.results} is not a libero-bench results file ({what})") from None
 
     def rollout_recording(
         self, task: Mapping[str, Any], rollouts: list[dict[str, Any]], index: int

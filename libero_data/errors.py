@@ -104,3 +104,7 @@ class CheckpointError(LiberoDataError, ValueError):
 
 class PolicyFolderError(LiberoDataError, ValueError):
     """A LeRobot policy folder is damaged: its config, weights or processors cannot be read."""
+
+
+class FileFormatError(LiberoDataError, ValueError):
+    """A file we read is not in its format: not JSON, a JSON file without a field it needs, ..."""

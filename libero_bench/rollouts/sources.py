@@ -71,15 +71,18 @@ def check_policy(policy: str, image_size: int | None = None, replan_steps: int =
     from libero_bench.run_files import RunFolder
 
     if not is_server(policy) and RunFolder(Path(policy)).is_run():
-        from libero_bench.checkpoints import kept_checkpoint, read_checkpoint
+        from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
         from libero_bench.runs import load_run
         from libero_data.errors import RunError
 
         summary = load_run(Path(policy))
-        if summary.tasks_done < 1:
+        last = summary.tasks_done - 1
+        if last < 0:
             raise RunError(
                 f"the run {policy} has not finished learning a task yet: no checkpoint to evaluate"
             )
-        read_checkpoint(kept_checkpoint(RunFolder(Path(policy)), summary.config, summary.tasks_done - 1))
+        # built and loaded once here: a config or checkpoint that does not fit is refused before any output
+        checkpoint = kept_checkpoint(RunFolder(Path(policy)), summary.config, last)
+        policy_from_checkpoint(summary.config, checkpoint, last)
         return
     policy_source(policy, image_size, replan_steps)

@@ -9,6 +9,7 @@ Any other exception is a bug and shows its traceback.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import functools
 import sys
@@ -165,17 +166,30 @@ def quiet_environment(threads: int = 1) -> None:
 @contextmanager
 def rollout_progress() -> Iterator[tuple[Callable[[Any], None], Callable[[int], None]]]:
     """A progress bar of rollouts with a running success count: yields the callbacks
-    (``on_result`` for each finished rollout, ``on_total`` once the number is known)."""
-    with progress("succeeded") as bar:
-        job = bar.add_task("rollouts", total=None, succeeded="")
+    (``on_result`` for each finished rollout, ``on_total`` once the number is known). The bar
+    appears with the first of them, so a command refused before any rollout prints its sentence
+    alone."""
+    with contextlib.ExitStack() as stack:
+        shown: dict[str, Any] = {}
         wins = {"yes": 0, "all": 0}
+
+        def bar() -> tuple[Any, Any]:
+            if not shown:
+                shown["bar"] = stack.enter_context(progress("succeeded"))
+                shown["job"] = shown["bar"].add_task("rollouts", total=None, succeeded="")
+            return shown["bar"], shown["job"]
 
         def done(result: Any) -> None:
             wins["yes"] += bool(result.success)
             wins["all"] += 1
-            bar.update(job, advance=1, succeeded=f"{wins['yes']}/{wins['all']} succeeded")
+            shown_bar, job = bar()
+            shown_bar.update(job, advance=1, succeeded=f"{wins['yes']}/{wins['all']} succeeded")
 
-        yield done, lambda n: bar.update(job, total=n)
+        def total(n: int) -> None:
+            shown_bar, job = bar()
+            shown_bar.update(job, total=n)
+
+        yield done, total
 
 
 # -- options several commands take ------------------------------------------------------------------

@@ -32,6 +32,47 @@ def write_bytes(path: Path, data: bytes) -> Path:
     return path
 
 
+def read_json(path: Path, *, required: tuple[str, ...] = ()) -> Any:
+    """A JSON file's content, with one sentence naming the file if it is missing, not JSON, or
+    (``required``) not an object holding those fields."""
+    from libero_data.errors import FileFormatError, MissingFileError
+
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise MissingFileError(f"{path} is missing") from None
+    except UnicodeDecodeError:
+        raise FileFormatError(f"{path} is not valid JSON (not even text)") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(
+            f"{path} is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
+        ) from None
+    if required:
+        if not isinstance(data, dict):
+            raise FileFormatError(f"{path} holds a JSON {type(data).__name__}, not an object")
+        missing = [k for k in required if k not in data]
+        if missing:
+            raise FileFormatError(f"{path} has no {', '.join(repr(k) for k in missing)} field")
+    return data
+
+
+def read_json_lines(path: Path) -> list[Any]:
+    """The records of a JSON-lines file; one sentence naming the file and line of a bad one."""
+    from libero_data.errors import FileFormatError
+
+    rows = []
+    for number, line in enumerate(Path(path).read_text().splitlines(), 1):
+        if line.strip():
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError as exc:
+                raise FileFormatError(f"{path}, line {number} is not valid JSON ({exc.msg})") from None
+    return rows
+
+
 def write_text(path: Path, text: str) -> Path:
     """Write ``text`` to ``path`` atomically."""
     return write_bytes(path, text.encode())

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import json
 import shutil
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from libero_data.errors import FolderBusy, SettingsChanged
-from libero_data.runtime.files import write_json
+from libero_data.errors import FolderBusy, FolderError, SettingsChanged
+from libero_data.runtime.files import read_json, write_json
 
 #: The hidden work folder inside a dataset folder (``libero-data``'s state while it generates).
 DATASET_WORK = ".libero-data"
@@ -92,7 +91,10 @@ class WorkFolder:
             if record:
                 write_json(path, dict(settings), newline=False)
             return None
-        saved = {**(legacy or {}), **json.loads(path.read_text())}
+        recorded = read_json(path)
+        if not isinstance(recorded, dict):
+            raise FolderError(f"{path} is not a settings file of libero-data or libero-bench")
+        saved = {**(legacy or {}), **recorded}
         changed = changed_keys(saved, settings, ignore)
         if changed:
             values = [

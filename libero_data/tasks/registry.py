@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from libero_data.errors import InputError, MissingFileError, TaskLookupError
+from libero_data.errors import FileFormatError, InputError, MissingFileError, TaskLookupError
+from libero_data.runtime.files import read_json
 
 if TYPE_CHECKING:
     import numpy as np
@@ -106,7 +107,7 @@ class Suite:
         """The suite folder's manifest (empty for the shipped suites and bare BDDL folders)."""
         if self.path is None or not (self.path / SUITE_MANIFEST).is_file():
             return {}
-        return dict(json.loads((self.path / SUITE_MANIFEST).read_text()))
+        return dict(read_json(self.path / SUITE_MANIFEST, required=("tasks",)))
 
     def __len__(self) -> int:
         return len(self.tasks)
@@ -174,8 +175,10 @@ def _folder_suite(path: Path) -> Suite:
     """A suite stored as a folder: ``suite.json`` (ordered names) or every ``*.bddl`` sorted."""
     manifest = path / SUITE_MANIFEST
     if manifest.is_file():
-        meta = json.loads(manifest.read_text())
+        meta = read_json(manifest, required=("tasks",))
         entries = meta["tasks"]
+        if not isinstance(entries, list) or not all(isinstance(e, dict) and "name" in e for e in entries):
+            raise FileFormatError(f"{manifest}: 'tasks' is not a list of tasks with their names")
         name = meta.get("name", path.name)
     else:
         entries = [{"name": p.stem} for p in sorted(path.glob("*.bddl"))]

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import torch
 
@@ -29,3 +31,48 @@ def synthetic_batch(
         "actions": torch.rand(b, t, 7, generator=g) * 2 - 1,
         "task_id": torch.full((b,), task_id, dtype=torch.long),
     }
+
+
+class Succeeds:
+    """Stands in for the rollout evaluator (``libero_bench.evaluate.Evaluator``): every rollout
+    succeeds in 3 steps, no simulation."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def __enter__(self) -> Succeeds:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def describe(self) -> dict[str, object]:
+        return {"batch_size": 1, "executor": "local", "workers": 0}
+
+    def run(self, policy: Any, jobs: list[Any], on_result: Any = None) -> list[Any]:
+        from libero_bench.rollouts.jobs import RolloutResult
+
+        return [RolloutResult(job.key, True, 3, 0.0) for job in jobs]
+
+
+def run_request(data: Path, **kwargs: Any) -> Any:
+    """A tiny ER run request on ``data`` (one epoch, 32 px, task-id language)."""
+    from libero_bench.presets import SMOKE
+    from libero_bench.train import RunRequest
+
+    preset = SMOKE.replace(epochs=1, batch_size=32, image_size=32, language_encoder="task_id")
+    return RunRequest(data=data, algo="er", policy="resnet_t", preset=preset, **kwargs)
+
+
+def make_run(data: Path, out: Path) -> Path:
+    """A finished run of :func:`run_request` made without simulation (rollouts all succeed)."""
+    import pytest
+
+    from libero_bench import evaluate
+    from libero_bench.train import RunOptions, Trainer, plan_run
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(evaluate, "Evaluator", Succeeds)
+        patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
+        Trainer(plan_run(run_request(data)), out, RunOptions(workers=0)).run()
+    return out

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 import torch
-from bench_helpers import BatchFactory, synthetic_batch
+from bench_helpers import BatchFactory, make_run, synthetic_batch
 
 
 @pytest.fixture(autouse=True, scope="session")
@@ -20,3 +21,10 @@ def _one_thread() -> Iterator[None]:
 @pytest.fixture
 def make_batch() -> BatchFactory:
     return synthetic_batch
+
+
+@pytest.fixture(scope="session")
+def er_run(tiny_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished two-task ER run on the tiny dataset, made without simulation (its checkpoints
+    hold replay memories keyed by task number); read-only to the tests."""
+    return make_run(tiny_dataset, tmp_path_factory.mktemp("er_run") / "run")

@@ -16,18 +16,16 @@ from typing import Any
 import numpy as np
 import pytest
 import torch
+from bench_helpers import Succeeds, run_request
 from typer.testing import CliRunner
 
 from libero_bench import evaluate
 from libero_bench.checkpoints import CHECKPOINT, EPOCH_STATE, read_checkpoint
 from libero_bench.cli import app
 from libero_bench.migrate import migrate
-from libero_bench.presets import SMOKE
 from libero_bench.state_files import is_pickle, load_state, load_weights, save_state
-from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
+from libero_bench.train import RunOptions, Trainer, plan_run
 from libero_data.errors import CheckpointError
-
-PRESET = SMOKE.replace(epochs=1, batch_size=32, image_size=32, language_encoder="task_id")
 
 
 class _Evil:
@@ -48,42 +46,6 @@ def _evil_pickle(path: Path, marker: Path, *, torch_save: bool = False) -> Path:
     else:
         path.write_bytes(pickle.dumps(content))
     return path
-
-
-class _Succeeds:
-    """Stands in for the rollout evaluator: every rollout succeeds in 3 steps (no simulation)."""
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        pass
-
-    def __enter__(self) -> _Succeeds:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        pass
-
-    def describe(self) -> dict[str, object]:
-        return {"batch_size": 1, "executor": "local", "workers": 0}
-
-    def run(self, policy: Any, jobs: list[Any], on_result: Any = None) -> list[Any]:
-        from libero_bench.rollouts.jobs import RolloutResult
-
-        return [RolloutResult(job.key, True, 3, 0.0) for job in jobs]
-
-
-def _request(data: Path, **kwargs: Any) -> RunRequest:
-    return RunRequest(data=data, algo="er", policy="resnet_t", preset=PRESET, **kwargs)
-
-
-@pytest.fixture(scope="module")
-def er_run(tiny_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A finished two-task ER run (its checkpoints hold replay memories keyed by task number)."""
-    out = tmp_path_factory.mktemp("safe") / "run"
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "Evaluator", _Succeeds)
-        patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
-        Trainer(plan_run(_request(tiny_dataset)), out, RunOptions(workers=0)).run()
-    return out
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -222,7 +184,7 @@ def test_an_earlier_runs_pickles_are_migrated(er_run: Path, tiny_dataset: Path, 
         torch.save(originals[path.name], path.with_suffix(".pt"))  # what the earlier writer made
         path.unlink()
     assert set(originals) == {"task_000.safetensors", "task_001.safetensors"}
-    trainer = Trainer(plan_run(_request(tiny_dataset)), run, RunOptions(workers=0))
+    trainer = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions(workers=0))
     with pytest.raises(CheckpointError, match=r"holds pickled checkpoints \(task_000.pt, task_001.pt\)"):
         trainer.prepare()
     converted = migrate(run)
@@ -233,9 +195,9 @@ def test_an_earlier_runs_pickles_are_migrated(er_run: Path, tiny_dataset: Path, 
     assert original["algo"]["memories"].keys() == {0, 1}  # ER's memories, keyed by task number
     # the migrated run reads as before: finished, nothing redone
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "Evaluator", _Succeeds)
+        patch.setattr(evaluate, "Evaluator", Succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
-        again = Trainer(plan_run(_request(tiny_dataset)), run, RunOptions(workers=0)).run()
+        again = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions(workers=0)).run()
     assert again.complete
 
 
@@ -245,8 +207,8 @@ def test_initial_weights_must_fit_the_policy(er_run: Path, tiny_dataset: Path, t
     weights = read_checkpoint(er_run / "checkpoints" / "task_000.safetensors")["policy"]
     bare = tmp_path / "bare.safetensors"
     save_file({k: v.contiguous() for k, v in weights.items()}, str(bare))
-    plan_run(_request(tiny_dataset, init_checkpoint=bare))  # bare weights of this policy: accepted
+    plan_run(run_request(tiny_dataset, init_checkpoint=bare))  # bare weights of this policy: accepted
     wrong = tmp_path / "wrong.safetensors"
     save_file({"layer.weight": torch.ones(2)}, str(wrong))
     with pytest.raises(ValueError, match=r"wrong.safetensors does not fit the resnet_t policy"):
-        plan_run(_request(tiny_dataset, init_checkpoint=wrong))
+        plan_run(run_request(tiny_dataset, init_checkpoint=wrong))
