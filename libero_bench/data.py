@@ -126,6 +126,11 @@ class DemoDataset:
         for key in self.camera_features.values():
             if features[key].get("dtype") != "video":
                 raise DatasetError(f"{self.root}: feature {key} must be stored as video")
+            videos = self.root / "videos" / key
+            if not (videos.is_dir() and any(videos.rglob("*.mp4"))):
+                raise DatasetError(
+                    f"{videos} is missing or holds no videos: {self.root} is not a whole dataset"
+                )
         shape = features[self.camera_features[AGENTVIEW]]["shape"]
         self.image_size = int(shape[0])
         self.fps = float(self.info["fps"])

@@ -38,18 +38,9 @@ ROLLOUTS = "rollouts"
 RRD = "rrd"
 WORK = ".work"
 RUN_FORMAT = "libero-bench-run/1"
-#: What every reader of a run's config.json uses.
-CONFIG_FIELDS = (
-    "format",
-    "data",
-    "tasks",
-    "algo",
-    "algo_config",
-    "policy",
-    "policy_config",
-    "preset",
-    "seed",
-)
+#: What every reader of a run's config.json uses (what rebuilds its policy: :data:`POLICY_FIELDS`).
+CONFIG_FIELDS = ("format", "tasks", "algo", "policy", "preset", "seed")
+POLICY_FIELDS = ("data", "algo_config", "policy_config")
 
 LEARNING, PRUNED, AFTER = "learning", "pruned", "after"
 #: Where evaluation rollouts start: LIBERO's stored init states (the paper's protocol), or
@@ -278,22 +269,23 @@ class RunFolder:
             return False
         try:
             return bool(json.loads(self.config.read_text()).get("format") == RUN_FORMAT)
-        except (json.JSONDecodeError, AttributeError):
+        except (OSError, ValueError, AttributeError):  # not JSON, not text, not an object
             return False
 
-    def read_config(self) -> dict[str, Any]:
-        """The run's ``config.json``, checked for the fields every reader uses."""
+    def read_config(self, needs: tuple[str, ...] = ()) -> dict[str, Any]:
+        """The run's ``config.json``, checked for the fields every reader uses and ``needs``."""
         if not self.config.is_file():
             raise RunError(f"{self.root} is not a libero-bench run folder (no {CONFIG})")
         data = read_json(self.config)
         if not isinstance(data, dict) or data.get("format") != RUN_FORMAT:
             raise RunError(f"{self.config} is not a {RUN_FORMAT} config")
-        data = read_json(self.config, required=CONFIG_FIELDS)
+        data = read_json(self.config, required=CONFIG_FIELDS + needs)
+        self.refuse_pickles()  # a shared run with pickled checkpoints is converted before any use
         tasks = data["tasks"]
         if not isinstance(tasks, list) or not all(isinstance(t, dict) and "name" in t for t in tasks):
             raise FileFormatError(f"{self.config}: 'tasks' is not a list of tasks with their names")
         for key in ("policy_config", "algo_config", "preset"):
-            if not isinstance(data[key], dict):
+            if key in data and not isinstance(data[key], dict):
                 raise FileFormatError(f"{self.config}: {key!r} is not an object")
         return dict(data)
 

@@ -120,6 +120,8 @@ class Trainer:
         if self.folder.config.is_file():
             self.folder.refuse_pickles()  # whatever the settings: a pickled checkpoint is never opened
             saved = self.folder.read_config()
+            if self.folder.results.is_file():
+                self.folder.read_results()  # a damaged results.json is refused before anything is written
             preset = {**LEGACY_PRESET, **saved.get("preset", {})}
             changed = changed_keys({**saved, "preset": preset}, config, ignore=RUNTIME_KEYS)
             if changed:

@@ -72,9 +72,11 @@ def check_policy(policy: str, image_size: int | None = None, replan_steps: int =
 
     if not is_server(policy) and RunFolder(Path(policy)).is_run():
         from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
+        from libero_bench.run_files import POLICY_FIELDS
         from libero_bench.runs import load_run
         from libero_data.errors import RunError
 
+        RunFolder(Path(policy)).read_config(needs=POLICY_FIELDS)
         summary = load_run(Path(policy))
         last = summary.tasks_done - 1
         if last < 0:

@@ -44,25 +44,21 @@ class WorkFolder:
         if not lock.is_file():
             return
         with lock.open("r") as handle:
-            try:
-                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                raise FolderBusy(
-                    f"another process is writing the {self.what} in {owner or self.root}"
-                ) from None
+            self._take(handle, owner)
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+    def _take(self, handle: Any, owner: Path | None) -> None:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusy(f"another process is writing the {self.what} in {owner or self.root}") from None
 
     @contextlib.contextmanager
     def locked(self, owner: Path | None = None) -> Iterator[None]:
         """Hold the folder's lock for the block; :class:`FolderBusy` if another process has it."""
         self.root.mkdir(parents=True, exist_ok=True)
         with (self.root / "lock").open("w") as handle:
-            try:
-                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                raise FolderBusy(
-                    f"another process is writing the {self.what} in {owner or self.root}"
-                ) from None
+            self._take(handle, owner)
             try:
                 yield
             finally:

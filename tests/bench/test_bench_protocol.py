@@ -11,6 +11,7 @@ from typing import Any, ClassVar
 
 import pytest
 import torch
+from bench_helpers import Succeeds
 
 from libero_bench import evaluate
 from libero_bench.algos import ALGOS
@@ -36,7 +37,7 @@ def _digest(policy: torch.nn.Module) -> float:
     )
 
 
-class ScriptedEvaluator:
+class ScriptedEvaluator(Succeeds):
     """Stands in for :class:`libero_bench.evaluate.Evaluator`: successes come from the tables
     above; every call records the policy's weights digest."""
 
@@ -46,15 +47,6 @@ class ScriptedEvaluator:
         self, workers: int, work_dir: Path, *, executor: str = "local", ray_address: str | None = None
     ) -> None:
         assert executor == "local" and ray_address is None  # what RunOptions defaults to
-
-    def __enter__(self) -> ScriptedEvaluator:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        pass
-
-    def describe(self) -> dict[str, object]:
-        return {"batch_size": 1, "executor": "local", "workers": 0}
 
     def run(self, policy: Any, jobs: list[RolloutJob], on_result: Any = None) -> list[RolloutResult]:
         out = []

@@ -146,6 +146,9 @@ CASES: dict[str, Case] = {
     ),
     "dataset: parquet truncated": Case("dataset", _truncate("data"), _train, "parquet"),
     "dataset: episodes table missing": Case("dataset", _remove("meta/episodes"), _train, "episodes"),
+    "dataset: a camera's videos missing": Case(
+        "dataset", _remove("videos/observation.images.image"), _train, "holds no videos"
+    ),
     "dataset: a folder that is not a dataset": Case("dataset", _remove("meta"), _train, "no meta/info.json"),
     # run folders, opened by robustness, serve, saliency, report, replay and run (resume)
     "run: config.json not JSON": Case("run", _write("config.json", "{"), _sweep, "not valid JSON"),

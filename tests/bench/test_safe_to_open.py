@@ -158,6 +158,9 @@ def test_a_pickle_that_runs_code_is_never_opened(er_run: Path, tiny_dataset: Pat
         "saliency": ("saliency", run, "--task", "0", "--out", tmp_path / "saliency"),
         "serve": ("serve", run, "--port", "1"),
         "eval": ("eval", run, "--tasks", "libero_goal/0", "--out", tmp_path / "eval"),
+        "report": ("report", run, "--out", tmp_path / "report"),
+        "compare": ("compare", run, er_run, "--out", tmp_path / "compare"),
+        "replay": ("replay", run, "--task", "0", "--rrd", tmp_path / "replay.rrd"),
         "migrate (folder)": ("migrate", run),
         "migrate (file)": ("migrate", evil, "--out", tmp_path / "converted.safetensors"),
     }
@@ -165,12 +168,29 @@ def test_a_pickle_that_runs_code_is_never_opened(er_run: Path, tiny_dataset: Pat
     for name, args in commands.items():
         sentences[name] = _one_sentence(_cli(*args))
         assert not marker.exists(), f"{name} ran the pickle's code"
-    for name in ("run --init-checkpoint", "run (resume)", "robustness", "saliency", "serve"):
+    for name in (
+        "run --init-checkpoint",
+        "run (resume)",
+        "robustness",
+        "saliency",
+        "serve",
+        "report",
+        "replay",
+    ):
         assert "pickled" in sentences[name] and "libero-bench migrate" in sentences[name], sentences[name]
     assert "cannot be read as a checkpoint of tensors" in sentences["migrate (file)"]
     assert "it would call posix.system" in sentences["migrate (file)"], sentences["migrate (file)"]
     # nothing was written
-    for made in ("new", "sweep", "saliency", "eval", "converted.safetensors"):
+    for made in (
+        "new",
+        "sweep",
+        "saliency",
+        "eval",
+        "report",
+        "compare",
+        "replay.rrd",
+        "converted.safetensors",
+    ):
         assert not (tmp_path / made).exists(), made
     assert (run / "checkpoints" / "task_001.pt").is_file()  # a refused migrate leaves the folder as it was
 
