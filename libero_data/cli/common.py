@@ -81,7 +81,8 @@ def user_errors[F: Callable[..., Any]](fn: F) -> F:
         except KeyboardInterrupt:
             raise fail("interrupted", code=130) from None
         except OSError as exc:
-            sentence = system_failure(exc)
+            out = kwargs.get("out")  # a file the system names, else the command's output folder
+            sentence = system_failure(exc, where=str(out) if out is not None else None)
             if sentence is None:
                 raise
             raise fail(sentence) from None
@@ -105,10 +106,11 @@ _SYSTEM_FAILURES = {
 }
 
 
-def system_failure(exc: OSError) -> str | None:
+def system_failure(exc: OSError, where: str | None = None) -> str | None:
     """One sentence for a failure of the system rather than of our code (a full disk, a folder
     without permission, a read-only file system), or None for any other ``OSError``. Libraries that
-    wrap the error (pyarrow: ``[errno 28] ...``) are read from the message."""
+    wrap the error (pyarrow: ``[errno 28] ...``) are read from the message; ``where`` names the
+    place written when the error names no file."""
     import re
 
     code = exc.errno
@@ -118,8 +120,8 @@ def system_failure(exc: OSError) -> str | None:
     template = _SYSTEM_FAILURES.get(code) if code is not None else None
     if template is None:
         return None
-    where = exc.filename if exc.filename is not None else None
-    return template.format(what=where or "the output")
+    what = exc.filename if exc.filename is not None else where
+    return template.format(what=what or "the output")
 
 
 def split_list(items: list[str] | str | None) -> list[str]:

@@ -53,6 +53,22 @@ def test_a_system_failure_is_one_sentence_that_says_what_to_do(error: OSError, e
     assert expected in result.stderr
 
 
+def test_an_error_that_names_no_file_names_the_commands_output() -> None:
+    wrapped = OSError("Error writing bytes to file. Detail: [errno 28] No space left on device")  # pyarrow's
+    sentence = system_failure(wrapped, where="/data/out")
+    assert sentence is not None and sentence.startswith(
+        "no space left on the device while writing /data/out;"
+    )
+
+    def command(out: str) -> None:
+        raise wrapped
+
+    demo = typer.Typer()
+    demo.command()(user_errors(command))
+    result = CliRunner().invoke(demo, ["/data/out"])
+    assert result.stderr.strip() == f"error: {sentence}"
+
+
 def test_other_os_errors_stay_bugs_with_their_traceback() -> None:
     assert system_failure(OSError(errno.ENOENT, "No such file or directory", "/x")) is None
     assert system_failure(OSError("something else")) is None
