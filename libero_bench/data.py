@@ -34,7 +34,7 @@ from libero_bench.batch_keys import (
     JOINT_STATES,
     WRIST,
 )
-from libero_data.errors import DatasetError, InputError, MissingFileError
+from libero_data.errors import DatasetError, InputError
 from libero_data.record.features import ACTION, OBS_GRIPPER, OBS_JOINTS, camera_keys_of
 from libero_data.runtime.files import read_json, read_json_lines
 
@@ -73,25 +73,6 @@ class EpisodeFrames(NamedTuple):
         return int(self.actions.shape[0])
 
 
-def _check_tables(root: Path) -> None:
-    """The dataset's tables are there and readable (their Parquet footers), so that a damaged
-    copy is one sentence here rather than a failure in the middle of training."""
-    import pyarrow.parquet as pq
-
-    for folder in (root / "meta" / "episodes", root / "data"):
-        files = sorted(folder.rglob("*.parquet")) if folder.is_dir() else []
-        if not files:
-            raise DatasetError(
-                f"{folder} is missing or holds no Parquet files: {root} is not a whole dataset"
-            )
-        for path in files:
-            try:
-                pq.read_metadata(path)
-            except Exception as exc:  # pyarrow's errors for a damaged file vary by damage
-                first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-                raise DatasetError(f"{path} is not a readable Parquet file ({first})") from None
-
-
 class DemoDataset:
     """A libero-data (LeRobot v3) dataset on disk: tasks, episodes and decoded frames.
 
@@ -100,20 +81,10 @@ class DemoDataset:
     """
 
     def __init__(self, root: str | Path) -> None:
+        from libero_data.pipeline.readable import readable_dataset
+
         self.root = Path(root)
-        info_path = self.root / "meta" / "info.json"
-        if not self.root.is_dir():
-            raise MissingFileError(f"dataset folder {self.root} does not exist")
-        if not info_path.is_file():
-            raise DatasetError(f"{self.root} is not a LeRobot dataset (no meta/info.json)")
-        self.info: dict[str, Any] = read_json(info_path, required=("features", "fps", "total_episodes"))
-        version = str(self.info.get("codebase_version", ""))
-        if not version.startswith("v3."):
-            raise DatasetError(
-                f"{info_path} says LeRobot dataset format {version or '(none)'}; libero-bench reads v3.x "
-                "(convert older datasets with lerobot's convert_dataset_v21_to_v30)"
-            )
-        _check_tables(self.root)
+        self.info: dict[str, Any] = readable_dataset(self.root)
         features = self.info["features"]
         cameras = camera_keys_of(features)  # either naming profile
         missing = [f"the {c} camera" for c in CAMERA_INPUTS.values() if c not in cameras]

@@ -7,14 +7,14 @@ language, on a ``frame`` timeline (and ``time`` in seconds).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from libero_data.errors import DatasetError, InputError
+from libero_data.errors import InputError
 from libero_data.record.features import ACTION, ACTION_NAMES, OBS_STATE, STATE_NAMES, camera_keys_of
 from libero_data.record.rrd import rrd_file
+from libero_data.runtime.files import read_json
 
 
 def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
@@ -22,11 +22,10 @@ def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
     import rerun as rr
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
+    from libero_data.pipeline.readable import readable_dataset
+
     root = Path(root)
-    info_path = root / "meta" / "info.json"
-    if not info_path.is_file():
-        raise DatasetError(f"{root} is not a dataset folder (meta/info.json is missing)")
-    info = json.loads(info_path.read_text())
+    info = readable_dataset(root)
     total = int(info.get("total_episodes", 0))
     if not 0 <= episode < total:
         raise InputError(f"{root} has episodes 0..{total - 1}, not {episode}", field="episode")
@@ -61,5 +60,5 @@ def episode_to_rrd(root: str | Path, episode: int, out: str | Path) -> Path:
 def _repo_id(root: Path) -> str:
     meta = root / "meta" / "libero.json"
     if meta.is_file():
-        return str(json.loads(meta.read_text())["request"]["repo_id"])
+        return str((read_json(meta).get("request") or {}).get("repo_id") or f"local/{root.name}")
     return f"local/{root.name}"

@@ -9,7 +9,6 @@ serves 128x128 and 256x256 users alike, and the new folder resumes like any othe
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -22,7 +21,7 @@ from libero_data.pipeline.generate import Progress, check_output, generate
 from libero_data.pipeline.request import LEGACY_REQUEST, GenerateRequest, Slot, slots_of
 from libero_data.pipeline.resimulate import recorded_machines, stored_episode
 from libero_data.pipeline.validate import episode_table
-from libero_data.runtime.files import save_record
+from libero_data.runtime.files import read_json, read_json_lines, save_record
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder
 
 #: What a slot the source gave up on says in the new dataset.
@@ -33,10 +32,13 @@ def rerender_request(
     source: Path, *, image_size: int, features: str, cameras: tuple[str, ...], render_quality: str = "full"
 ) -> GenerateRequest:
     """The source dataset's request with the new rendering settings."""
+    from libero_data.pipeline.readable import readable_dataset
+
     meta_path = source / "meta" / "libero.json"
+    readable_dataset(source)
     if not meta_path.is_file():
         raise DatasetError(f"{source} is not a libero-data dataset (meta/libero.json is missing)")
-    saved = json.loads(meta_path.read_text())
+    saved = read_json(meta_path, required=("request",))
     if not saved.get("complete"):
         raise DatasetError(
             f"{source} is not complete yet; finish generating it first (run its command again)"
@@ -53,8 +55,8 @@ def rerender_request(
 
 def _records(source: Path, request: GenerateRequest) -> dict[str, dict[str, Any]]:
     """The search record of every slot, from the source's episodes (slot by slot)."""
-    info = json.loads((source / "meta" / "info.json").read_text())
-    rows = [json.loads(line) for line in (source / "meta" / "libero_episodes.jsonl").read_text().splitlines()]
+    info = read_json(source / "meta" / "info.json")
+    rows = read_json_lines(source / "meta" / "libero_episodes.jsonl")
     machines = recorded_machines(source)
     episodes = {int(e["episode_index"]): e for e in episode_table(source)}
     slots = slots_of(request)

@@ -149,6 +149,30 @@ CASES: dict[str, Case] = {
     "dataset: a camera's videos missing": Case(
         "dataset", _remove("videos/observation.images.image"), _train, "holds no videos"
     ),
+    "dataset: info.json not JSON (replay)": Case(
+        "dataset",
+        _write("meta/info.json", "{"),
+        lambda d, s: ["replay", d, "--rrd", s / "new"],
+        "not valid JSON",
+        tool="data",
+    ),
+    "dataset: parquet truncated (replay)": Case(
+        "dataset", _truncate("data"), lambda d, s: ["replay", d, "--rrd", s / "new"], "parquet", tool="data"
+    ),
+    "dataset: libero.json not JSON (rerender)": Case(
+        "dataset",
+        _write("meta/libero.json", "{"),
+        lambda d, s: ["rerender", d, "--image-size", "32", "--out", s / "new"],
+        "not valid JSON",
+        tool="data",
+    ),
+    "dataset: parquet truncated (rerender)": Case(
+        "dataset",
+        _truncate("data"),
+        lambda d, s: ["rerender", d, "--image-size", "32", "--out", s / "new"],
+        "parquet",
+        tool="data",
+    ),
     "dataset: a folder that is not a dataset": Case("dataset", _remove("meta"), _train, "no meta/info.json"),
     # run folders, opened by robustness, serve, saliency, report, replay and run (resume)
     "run: config.json not JSON": Case("run", _write("config.json", "{"), _sweep, "not valid JSON"),
