@@ -13,7 +13,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from libero_data.errors import MissingFileError
+from libero_data.errors import FileFormatError, MissingFileError
 from libero_data.runtime.files import write_text
 
 if TYPE_CHECKING:
@@ -152,7 +152,11 @@ def read_rates(csv_path: Path) -> dict[str, tuple[int, int]]:
     if not Path(csv_path).is_file():
         raise MissingFileError(f"expert report {csv_path} does not exist")
     with Path(csv_path).open(newline="") as f:
-        return {row["name"]: (int(row["successes"]), int(row["episodes"])) for row in csv.DictReader(f)}
+        try:
+            return {row["name"]: (int(row["successes"]), int(row["episodes"])) for row in csv.DictReader(f)}
+        except (KeyError, TypeError, ValueError, csv.Error, UnicodeDecodeError) as exc:
+            what = f"no {exc.args[0]!r} column" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
+            raise FileFormatError(f"{csv_path} is not an expert report table ({what})") from None
 
 
 def report_settings(journal: Path) -> dict[str, str] | None:

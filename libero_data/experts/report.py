@@ -126,9 +126,14 @@ class ReportJournal:
                 "start a fresh report or use another output folder",
                 changed=changed,
             )
-        for row in lines[1:]:
-            ref = row.pop("ref")
-            self.done[ref] = TaskResult(**row)
+        for number, row in enumerate(lines[1:], 2):
+            try:
+                ref = row.pop("ref")
+                self.done[ref] = TaskResult(**row)
+            except (AttributeError, KeyError, TypeError):
+                raise FolderError(
+                    f"{self.path}, entry {number} is not a measured task; start over with a fresh report"
+                ) from None
 
     def add(self, ref: str, result: TaskResult) -> None:
         self.journal.append({"ref": ref, **asdict(result)})

@@ -264,6 +264,21 @@ CASES: dict[str, Case] = {
     "suite: a task's BDDL missing": Case(
         "suite", _remove("tasks/0000.bddl"), lambda f, s: ["tasks", "--suite", f], "0000.bddl", tool="data"
     ),
+    "expert table: no successes column (card)": Case(
+        "bddl",
+        _write("expert_report.csv", "name,episodes\nopen_the_middle_drawer_of_the_cabinet,10\n"),
+        lambda f, s: [
+            "card",
+            "--suite",
+            "libero_goal",
+            "--expert-report",
+            f / "expert_report.csv",
+            "--out",
+            s / "new.png",
+        ],
+        "no 'successes' column",
+        tool="data",
+    ),
     "bddl: unbalanced": Case(
         "bddl",
         _write("task.bddl", "(define (problem x)"),
