@@ -32,6 +32,40 @@ TARGETS = {
 }
 #: Every task's rate is held to this floor (the same way: its interval must reach it).
 TASK_FLOOR = 0.5
+#: The longest of LIBERO's human demonstrations per suite, in control steps (20 Hz), as openpi's
+#: LIBERO example states them when it sets its evaluation step limits.
+HUMAN_LONGEST = {
+    "libero_spatial": 193,
+    "libero_object": 254,
+    "libero_goal": 270,
+    "libero_10": 505,
+    "libero_90": 373,
+}
+
+
+def length_summary(lengths: list[int]) -> dict[str, float]:
+    """Mean, median, 95th percentile and longest of episode lengths (NaN where there are none)."""
+    import numpy as np
+
+    if not lengths:
+        nan = float("nan")
+        return {"mean": nan, "median": nan, "p95": nan, "longest": nan}
+    values = np.asarray(lengths, dtype=float)
+    return {
+        "mean": float(values.mean()),
+        "median": float(np.median(values)),
+        "p95": float(np.percentile(values, 95)),
+        "longest": float(values.max()),
+    }
+
+
+def phase_shares(phases: dict[str, int]) -> str:
+    """Where the steps went, as shares of all of them: ``pick 41%; place_on 33%; ...``."""
+    total = sum(phases.values())
+    if not total:
+        return ""
+    ranked = sorted(phases.items(), key=lambda kv: -kv[1])
+    return "; ".join(f"{name} {count / total:.0%}" for name, count in ranked)
 
 
 def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
@@ -95,6 +129,10 @@ def write_report(
         "successes",
         "rate",
         "mean_length",
+        "median_length",
+        "p95_length",
+        "longest_length",
+        "phases",
         "seconds_per_episode",
         "failures",
     ]
@@ -102,7 +140,11 @@ def write_report(
     writer = csv.DictWriter(table, fieldnames=fields)
     writer.writeheader()
     for r in results:
-        row = asdict(r)
+        row = {k: v for k, v in asdict(r).items() if k != "lengths"}
+        kept = length_summary(r.lengths)
+        row["median_length"], row["p95_length"] = _steps(kept["median"]), _steps(kept["p95"])
+        row["longest_length"] = _steps(kept["longest"])
+        row["phases"] = phase_shares(r.phases)
         row["rate"] = f"{r.rate:.3f}"
         row["mean_length"] = f"{r.mean_length:.1f}"
         row["seconds_per_episode"] = f"{r.seconds_per_episode:.2f}"
@@ -135,6 +177,7 @@ def write_report(
         "just under the target is said so in words. The same for a task and the floor (✓ at or above, "
         "≈ below but within its interval, ✗ below it).",
     ]
+    lines += _length_table(results)
     lines += ["", "| task | instruction | success | mean steps | failures |", "|---|---|---:|---:|---|"]
     from libero_data.tasks.registry import language_from_name
 
@@ -145,6 +188,42 @@ def write_report(
         )
     write_text(md_path, "\n".join(lines) + "\n")
     return csv_path, md_path
+
+
+def _steps(value: float) -> str:
+    return "" if value != value else f"{value:.0f}"
+
+
+def _length_table(results: list[TaskResult]) -> list[str]:
+    """Per suite, the successful episodes' lengths beside LIBERO's longest human demonstration."""
+    suites = [
+        s for s in dict.fromkeys(r.suite for r in results) if any(r.lengths for r in results if r.suite == s)
+    ]
+    if not suites:
+        return []
+    lines = [
+        "",
+        "Lengths of the successful episodes (what a dataset keeps), in control steps at 20 Hz, beside the "
+        "longest of LIBERO's human demonstrations of the suite; and where the steps went (skills of the plan, "
+        "attempts that failed, the wait for the goal after the plan).",
+        "",
+        "| suite | episodes | mean | median | 95th percentile | longest | LIBERO human longest | where the steps go |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for suite in suites:
+        rows = [r for r in results if r.suite == suite]
+        lengths = [n for r in rows for n in r.lengths]
+        phases: dict[str, int] = {}
+        for r in rows:
+            for name, count in r.phases.items():
+                phases[name] = phases.get(name, 0) + count
+        s = length_summary(lengths)
+        human = HUMAN_LONGEST.get(suite)
+        lines.append(
+            f"| {suite} | {len(lengths)} | {s['mean']:.0f} | {_steps(s['median'])} | {_steps(s['p95'])} "
+            f"| {_steps(s['longest'])} | {human if human is not None else '—'} | {phase_shares(phases)} |"
+        )
+    return lines
 
 
 def read_rates(csv_path: Path) -> dict[str, tuple[int, int]]:

@@ -13,6 +13,7 @@ same states bit for bit.
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -64,6 +65,10 @@ class Episode:
     plan: list[str] = field(default_factory=list)
     failure: str | None = None
     setbacks: list[str] = field(default_factory=list)  # every skill failure, retried or not
+    #: Where the steps went: per skill of the plan (``pick``, ``place_on``, ...), ``failed
+    #: attempts`` (steps of a pick-and-place or articulation that failed, retried or not) and
+    #: ``wait for goal`` (the tail after the plan); the counts add up to the episode's length.
+    phases: dict[str, int] = field(default_factory=dict)
 
     @property
     def length(self) -> int:
@@ -129,6 +134,8 @@ class Expert:
         steps = self.plan()
         states: list[np.ndarray] = []
         actions: list[np.ndarray] = []
+        phases: Counter[str] = Counter()
+        attempt_steps: Counter[str] = Counter()  # the attempt in progress, by skill
 
         def execute(step: Step) -> None:
             gen = SKILLS.get(step.skill)(*step.args).run(ctx)
@@ -136,6 +143,7 @@ class Expert:
                 a = np.asarray(action, dtype=np.float32)
                 states.append(env.get_state())
                 actions.append(a)
+                attempt_steps[step.skill] += 1
                 if env.advance(a):
                     raise _Done
                 if len(actions) >= cfg.max_steps:
@@ -154,12 +162,16 @@ class Expert:
                     try:
                         for step in unit:
                             execute(step)
+                        phases.update(attempt_steps)
+                        attempt_steps.clear()
                         break
                     except SkillFailed as exc:
                         failure = str(exc)
                         setbacks.append(f"{unit[-1]}: {exc}")
                         log.debug("attempt %d of %s failed: %s", attempt, unit, exc)
                         ctx.held = None
+                        phases["failed attempts"] += sum(attempt_steps.values())
+                        attempt_steps.clear()
                 else:
                     raise _Budget
             failure = "goal not reached after the plan"
@@ -168,12 +180,14 @@ class Expert:
                 a = np.asarray(action, dtype=np.float32)
                 states.append(env.get_state())
                 actions.append(a)
+                phases["wait for goal"] += 1
                 if env.advance(a):
                     raise _Done
         except _Done:
             success, failure = True, None
         except _Budget:
             failure = failure or f"step budget of {cfg.max_steps} exhausted"
+        phases.update(attempt_steps)  # the attempt the goal or the budget ended
         return Episode(
             success=success,
             actions=np.asarray(actions, dtype=np.float32).reshape(-1, 7),
@@ -184,6 +198,7 @@ class Expert:
             plan=[str(s) for s in steps],
             failure=failure,
             setbacks=setbacks,
+            phases=dict(phases),
         )
 
 

@@ -38,6 +38,10 @@ class TaskResult:
     mean_length: float
     seconds_per_episode: float
     failures: dict[str, int] = field(default_factory=dict)
+    #: Steps of each successful episode, and where they went summed over them (skills, failed
+    #: attempts, the wait for the goal: ``Episode.phases``). Empty in reports made before.
+    lengths: list[int] = field(default_factory=list)
+    phases: dict[str, int] = field(default_factory=dict)
 
     @property
     def rate(self) -> float:
@@ -61,6 +65,8 @@ def evaluate_task(
     states = task.init_states()[:inits]
     failures: Counter[str] = Counter()
     lengths: list[int] = []
+    kept: list[int] = []  # the successful episodes' lengths: what a dataset keeps
+    phases: Counter[str] = Counter()
     successes = 0
     start = time.perf_counter()
     with LiberoEnv(task, EnvConfig(cameras=())) as env:
@@ -78,6 +84,8 @@ def evaluate_task(
             lengths.append(episode.length)
             if episode.success:
                 successes += 1
+                kept.append(episode.length)
+                phases.update(episode.phases)
             else:
                 failures[failure_reason(episode.failure)] += 1
             if on_episode is not None:
@@ -92,6 +100,8 @@ def evaluate_task(
         mean_length=float(np.mean(lengths)) if lengths else 0.0,
         seconds_per_episode=elapsed / max(len(states), 1),
         failures=dict(failures.most_common()),
+        lengths=kept,
+        phases=dict(phases.most_common()),
     )
 
 

@@ -62,6 +62,11 @@ def test_expert_report_writes_tables_and_resumes(tmp_path: Path) -> None:
     assert [(r["suite"], r["index"], r["episodes"]) for r in rows] == [("libero_goal", "7", "1")]
     assert rows[0]["successes"] == "1"  # turn on the stove
     assert "libero_goal/7" in (tmp_path / "expert_report.md").read_text()
+    # Where the steps went: per skill, adding up to the episode's length.
+    entry = json.loads((tmp_path / "expert_report.jsonl").read_text().splitlines()[1])
+    assert len(entry["lengths"]) == 1 and sum(entry["phases"].values()) == entry["lengths"][0]
+    assert "turn_on" in entry["phases"] and rows[0]["longest_length"] == str(entry["lengths"][0])
+    assert "| libero_goal | 1 |" in (tmp_path / "expert_report.md").read_text()
 
     # Run again: nothing is measured twice.
     second = cli(*args)
@@ -139,3 +144,25 @@ def test_the_fingerprint_ignores_comments_and_docstrings(tmp_path) -> None:
     assert digest("def f(x):\n    return x + 1\n") == base
     assert digest("def f(x):\n    return x + 2\n") != base  # the code changed
     assert digest("def f(x):\n    '''Doc.'''\n\n    def g():\n        pass\n    return x + 1\n") != base
+
+
+def test_lengths_are_stated_per_suite_beside_the_human_longest(tmp_path: Path) -> None:
+    from libero_data.cards.expert_table import HUMAN_LONGEST, write_report
+
+    lengths = [[100, 120], [140, 300]]
+    phases = [{"pick": 100, "place_on": 100, "wait for goal": 20}, {"pick": 200, "failed attempts": 240}]
+    rows = [
+        TaskResult("libero_spatial", i, f"task_{i}", 2, 2, 150.0, 1.0, {}, lengths[i], phases[i])
+        for i in range(2)
+    ]
+    csv_path, md = write_report(rows, tmp_path)
+    # 4 episodes: mean 165, median 130, 95th percentile 276 (linear), longest 300; LIBERO's humans: 193
+    assert HUMAN_LONGEST["libero_spatial"] == 193
+    row = "| libero_spatial | 4 | 165 | 130 | 276 | 300 | 193 | pick 45%; failed attempts 36%; place_on 15%; wait for goal 3% |"
+    assert row in md.read_text()
+    table = list(csv.DictReader(csv_path.open()))
+    assert [(r["median_length"], r["longest_length"]) for r in table] == [("110", "120"), ("220", "300")]
+    assert table[1]["phases"] == "failed attempts 55%; pick 45%"
+    # Reports measured before lengths were recorded read as they are, without the table.
+    _, old = write_report([result(0)], tmp_path / "old")
+    assert "LIBERO human longest" not in old.read_text()
