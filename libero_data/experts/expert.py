@@ -65,9 +65,11 @@ class Episode:
     plan: list[str] = field(default_factory=list)
     failure: str | None = None
     setbacks: list[str] = field(default_factory=list)  # every skill failure, retried or not
-    #: Where the steps went: per skill of the plan (``pick``, ``place_on``, ...), ``failed
-    #: attempts`` (steps of a pick-and-place or articulation that failed, retried or not) and
-    #: ``wait for goal`` (the tail after the plan); the counts add up to the episode's length.
+    #: Where the steps went: per skill of the plan and, where the skill says, its phase
+    #: (``pick: approach``, ``pick: descend``, ``pick: grasp``, ``pick: lift``, ``pick: regrasp``,
+    #: ``place_on: transport``, ``place_on: lower``, ``place_on: release``, ...), ``failed attempts``
+    #: (steps of a pick-and-place or articulation that failed, retried or not) and ``wait for
+    #: goal`` (the tail after the plan); the counts add up to the episode's length.
     phases: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -138,12 +140,13 @@ class Expert:
         attempt_steps: Counter[str] = Counter()  # the attempt in progress, by skill
 
         def execute(step: Step) -> None:
+            ctx.phase = None
             gen = SKILLS.get(step.skill)(*step.args).run(ctx)
             for action in gen:
                 a = np.asarray(action, dtype=np.float32)
                 states.append(env.get_state())
                 actions.append(a)
-                attempt_steps[step.skill] += 1
+                attempt_steps[f"{step.skill}: {ctx.phase}" if ctx.phase else step.skill] += 1
                 if env.advance(a):
                     raise _Done
                 if len(actions) >= cfg.max_steps:

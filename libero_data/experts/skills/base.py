@@ -29,6 +29,9 @@ class Context:
     problem: Problem
     held: str | None = None  # the object in the gripper, if any
     notes: dict[str, Any] = field(default_factory=dict)
+    #: What the skill is doing now (``approach``, ``grasp``, ``transport``, ...), for counting
+    #: where an episode's steps go; a label only, it changes no action.
+    phase: str | None = None
 
     # small shared helpers -------------------------------------------------------------------
     def jitter(self, scale: float, size: int | None = None) -> Any:
@@ -164,6 +167,7 @@ def upright(ctx: Context, height: float | None = None) -> Actions:
 
 def wait_until_still(ctx: Context, name: str, max_steps: int = 20, speed: float = 0.01) -> Actions:
     """Hold still until ``name`` has come to rest (after a drop or a failed grasp)."""
+    ctx.phase = "wait"
     for _ in range(max_steps):
         if ctx.scene.speed(name) < speed:
             return True

@@ -54,6 +54,7 @@ def carry_to(
     the way, and lowered straight down; ``above`` stops it that much higher.
     """
     assert ctx.held is not None
+    ctx.phase = "transport"
     scene = ctx.scene
     mat = scene.eef_mat() if mat is None else mat
     rel, hang = held_offset(ctx)
@@ -96,6 +97,7 @@ def carry_to(
             break
         yield from ctx.motion.hold(1, mat)
     speed = 0.12 + ctx.jitter(0.03)
+    ctx.phase = "lower"
     # Line up over the spot before going down: a narrow slot leaves a few mm to the walls.
     for _ in range(20):
         error_xy = np.asarray(body_xy[:2]) - scene.pos(ctx.held)[:2]
@@ -117,6 +119,7 @@ def carry_to(
 
 def release(ctx: Context, rise: float = 0.08) -> Actions:
     """Open the gripper and move up out of the way."""
+    ctx.phase = "release"
     mat = ctx.scene.eef_mat()
     yield from ctx.motion.set_gripper(OPEN, steps=8, mat=mat)
     ctx.held = None

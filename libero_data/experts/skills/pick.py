@@ -41,6 +41,7 @@ class Pick(Skill):
         # Up to three tries; after a miss the grasps are planned again (the object may have
         # moved) and spots within 2 cm of a missed one are skipped.
         missed: list[np.ndarray] = []
+        ctx.phase = "approach"
         yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12)
         if not insertion and not has_top_down_grasp(scene, obj):
             # Boxed in (a pudding pressed against a bowl): slide it a few cm into the open.
@@ -66,6 +67,7 @@ class Pick(Skill):
                 grasp = good[int(ctx.rng.integers(len(good)))]
             else:
                 grasp = grasps[0]
+            ctx.notes["regrasp"] = attempt > 0
             if (yield from _attempt(ctx, obj, grasp)):
                 break
             missed.append(grasp.pos)
@@ -110,6 +112,8 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     """One grasp: approach from above, close, lift a little; False (gripper open) if it failed."""
     scene = ctx.scene
     grasp = _leaning_back(ctx, grasp)
+    label = lambda phase: "regrasp" if ctx.notes.get("regrasp") else phase  # noqa: E731
+    ctx.phase = label("approach")
     above = grasp.pos - grasp.mat[:, 2] * (0.08 + ctx.jitter(0.02) + 0.02)
     ctx.motion.gripper = OPEN
     # Rise first when low, so the hand does not sweep through nearby objects.
@@ -131,18 +135,21 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         yield from lift(ctx, clear)
         yield from ctx.motion.move(np.array([above[0], above[1], clear]), grasp.mat, tol=0.015, max_steps=150)
     yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
+    ctx.phase = label("descend")
     if grasp.opening < MAX_OPENING:
         yield from ctx.motion.preshape(grasp.opening, mat=grasp.mat)
     reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.12 + ctx.jitter(0.03), tol=0.004)
     if not reached:
         # Blocked on the way down (usually by the object itself): one more slow push.
         yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.06, tol=0.006, max_steps=30)
+    ctx.phase = label("grasp")
     yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=grasp.mat)
     if not scene.grasped(obj):
         yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
         yield from lift(ctx, grasp.pos[2] + 0.08)
         return False
     z0 = float(scene.pos(obj)[2])
+    ctx.phase = label("lift")
     yield from lift(ctx, grasp.pos[2] + 0.06 + ctx.jitter(0.01), grasp.mat, speed=0.12)
     if not scene.grasped(obj) or scene.pos(obj)[2] < z0 + 0.02:
         yield from ctx.motion.set_gripper(OPEN, steps=6, mat=grasp.mat)
