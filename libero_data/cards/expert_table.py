@@ -59,6 +59,19 @@ def length_summary(lengths: list[int]) -> dict[str, float]:
     }
 
 
+def length_line(lengths: list[int], suite: str) -> str:
+    """A dataset's episode lengths in one line, beside LIBERO's longest human demonstration."""
+    if not lengths:
+        return "–"
+    s = length_summary(lengths)
+    line = (
+        f"mean {s['mean']:.0f}, median {s['median']:.0f}, 95th percentile {s['p95']:.0f}, "
+        f"longest {s['longest']:.0f}"
+    )
+    human = HUMAN_LONGEST.get(suite)
+    return line + (f" (LIBERO's longest human demonstration of {suite}: {human})" if human else "")
+
+
 def phase_shares(phases: dict[str, int]) -> str:
     """Where the steps went, as shares of all of them: ``pick 41%; place_on 33%; ...``."""
     total = sum(phases.values())

@@ -30,6 +30,7 @@ def describe_dataset(
     from libero_data import provenance
     from libero_data.cards import render_card
     from libero_data.cards.card import FAST_IMAGE_NOTE, FULL_IMAGE_NOTE
+    from libero_data.cards.expert_table import length_line
     from libero_data.runtime.versions import versions
     from libero_data.tasks import get_suite
 
@@ -62,6 +63,7 @@ def describe_dataset(
         "render quality": provenance.render_line(render),
         "attempts per episode (at most)": str(request.max_attempts),
         "fps": "20",
+        "episode length (steps)": length_line([int(info["length"]) for info in infos], suite.name),
         "complete": "yes" if complete else "no (generation still running or interrupted)",
         "expert code": ", ".join(sorted(codes)),
         **{f"version: {k}": v for k, v in vers.items()},

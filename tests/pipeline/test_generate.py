@@ -77,6 +77,10 @@ def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -
 
     assert meta["expert_code"] == [expert_code()]
     assert f"| expert code | {expert_code()} |" in text
+    # The episodes' lengths, beside LIBERO's longest human demonstration of the suite.
+    episodes = (tiny_dataset / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    lengths = sorted(int(json.loads(line)["length"]) for line in episodes)
+    assert f"longest {lengths[-1]} (LIBERO's longest human demonstration of libero_goal: 270) |" in text
 
 
 def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
