@@ -296,11 +296,18 @@ def _record(job: RolloutJob, result: RolloutResult) -> dict[str, Any]:
 def summarize(
     settings: dict[str, Any], records: list[dict[str, Any]], starts: dict[str, tuple[set[int], set[int]]]
 ) -> dict[str, Any]:
-    """Per task and overall, the success from each kind of start with n and its interval."""
+    """Per task and overall, the success from each kind of start with n and its interval, and
+    how many rollouts the step limit cut (failed having taken every step they were allowed)."""
     rows = []
     totals = {start: Rate(0, 0) for start in STARTS}
+    limit = int(settings["request"]["max_steps"])
     for task in settings["tasks"]:
-        row: dict[str, Any] = {"task": task["name"], "language": task["language"]}
+        mine_all = [r for r in records if r["task_position"] == task["position"]]
+        row: dict[str, Any] = {
+            "task": task["name"],
+            "language": task["language"],
+            "cut": sum(1 for r in mine_all if not r["success"] and int(r["steps"]) >= limit),
+        }
         for start in STARTS:
             mine = [
                 r["success"]
@@ -332,8 +339,12 @@ def summarize(
     return {
         "policy": settings["request"]["policy"],
         "policy_type": settings["policy_type"],
+        "max_steps": limit,
         "tasks": rows,
-        "all": {start: totals[start].to_dict() if totals[start].n else None for start in STARTS},
+        "all": {
+            **{start: totals[start].to_dict() if totals[start].n else None for start in STARTS},
+            "cut": sum(row["cut"] for row in rows),
+        },
         "notes": notes,
     }
 
@@ -348,13 +359,17 @@ def markdown(summary: dict[str, Any]) -> str:
         f"# {summary['policy_type']} policy: success in simulation",
         "",
         f"Policy: `{summary['policy']}`. Success with n and 95% Wilson interval; stored: LIBERO's stored init "
-        "states (the paper's protocol); held out: placements no training demonstration started from.",
+        "states (the paper's protocol); held out: placements no training demonstration started from. "
+        f"Cut: rollouts that failed having taken all {summary.get('max_steps', '?')} steps of the limit "
+        "(a longer limit might have let them finish).",
         "",
-        "| task | stored starts | held-out starts |",
-        "|---|---:|---:|",
+        "| task | stored starts | held-out starts | cut by the step limit |",
+        "|---|---:|---:|---:|",
     ]
     for row in [*summary["tasks"], {"task": "**all tasks**", **summary["all"]}]:
-        lines.append(f"| {row['task']} | {cell(row[STORED])} | {cell(row[HELDOUT])} |")
+        lines.append(
+            f"| {row['task']} | {cell(row[STORED])} | {cell(row[HELDOUT])} | {row.get('cut', '–')} |"
+        )
     lines += [f"\n- note: {n}" for n in summary["notes"]]
     return "\n".join(lines) + "\n"
 

@@ -118,6 +118,10 @@ def test_a_served_policy_is_evaluated_as_a_local_one_and_a_dying_server_leaves_a
         EvalRequest(str(policy), **request), tmp_path / "local", execution=Execution(workers=0, batch_size=2)
     )
     assert again["all"] == local["all"]
+    # 4 steps solve nothing: every rollout is a failure cut by the step limit, and the report says so.
+    assert local["max_steps"] == 4 and local["all"]["cut"] == 2 and local["tasks"][0]["cut"] == 2
+    assert "| **all tasks** |" in (tmp_path / "local" / "report.md").read_text()
+    assert "cut by the step limit |" in (tmp_path / "local" / "report.md").read_text()
     assert len(json.loads((tmp_path / "local" / "results.json").read_text())["sessions"]) == 1
 
     # The server dies after the first rollout: one sentence naming it; the folder resumes.
