@@ -12,7 +12,7 @@ import numpy as np
 
 from libero_bench.run_files import RUN_FORMAT, RunFolder
 from libero_bench.state_files import load_state, load_weights, save_state
-from libero_data.errors import CheckpointError, InputError, RunError
+from libero_data.errors import CheckpointError, InputError, RunError, first_line
 
 if TYPE_CHECKING:
     import torch
@@ -98,7 +98,7 @@ def _load_into(path: Path, policy: Policy, algo: Algo, data: dict[str, Any]) -> 
         policy.load_state_dict(data["policy"])
         algo.load_state_dict(data["algo"])
     except (RuntimeError, KeyError, TypeError, ValueError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        first = first_line(exc)
         raise CheckpointError(
             f"the checkpoint {path} does not fit this run's policy or algorithm: {first}"
         ) from None
@@ -116,7 +116,7 @@ def load_initial_weights(path: Path, policy: Policy, device: torch.device, polic
     try:
         policy.load_state_dict(state)
     except RuntimeError as exc:
-        first = str(exc).strip().splitlines()[0]
+        first = first_line(exc)
         raise InputError(
             f"the initial checkpoint {path} does not fit the {policy_name} policy: {first}",
             field="init_checkpoint",
@@ -149,7 +149,7 @@ def policy_from_checkpoint(config: dict[str, Any], checkpoint: Path, position: i
         acfg = algo_config_from_dict(config["algo_config"])
         algo = ALGOS.get(acfg.name)(acfg)
     except (KeyError, TypeError, ValueError) as exc:
-        what = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        what = first_line(exc)
         raise RunError(
             f"the config.json of the run with {checkpoint} does not describe a policy and algorithm "
             f"libero-bench can build ({what})"

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_data.errors import InputError, MissingFileError, PolicyFolderError
+from libero_data.errors import InputError, MissingFileError, PolicyFolderError, first_line
 from libero_data.runtime.files import read_json
 
 #: Camera input names -> our cameras.
@@ -117,8 +117,9 @@ def policy_config(path: Path) -> Any:
     try:
         config = PreTrainedConfig.from_pretrained(str(path))
     except Exception as exc:  # draccus, JSON and type errors alike: the file is not a policy config
-        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        raise PolicyFolderError(f"{path / 'config.json'} is not a LeRobot policy config ({first})") from None
+        raise PolicyFolderError(
+            f"{path / 'config.json'} is not a LeRobot policy config ({first_line(exc)})"
+        ) from None
     _check_weights(path / "model.safetensors")
     return config
 
@@ -137,7 +138,6 @@ def _check_weights(path: Path) -> None:
         with safe_open(str(path), framework="pt") as f:
             names = list(f.keys())
     except (SafetensorError, OSError, ValueError) as exc:
-        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        raise PolicyFolderError(f"{path} is not a safetensors file ({first})") from None
+        raise PolicyFolderError(f"{path} is not a safetensors file ({first_line(exc)})") from None
     if not names:
         raise PolicyFolderError(f"{path} holds no weights")

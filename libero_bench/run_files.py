@@ -26,8 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from libero_bench.state_files import MIGRATE_HINT
-from libero_data.errors import CheckpointError, FileFormatError, InputError, RunError
-from libero_data.runtime.files import read_json
+from libero_data.errors import CheckpointError, FileFormatError, InputError, RunError, first_line
+from libero_data.runtime.files import read_json, require_fields
 
 CONFIG = "config.json"
 RESULTS = "results.json"
@@ -279,7 +279,7 @@ class RunFolder:
         data = read_json(self.config)
         if not isinstance(data, dict) or data.get("format") != RUN_FORMAT:
             raise RunError(f"{self.config} is not a {RUN_FORMAT} config")
-        data = read_json(self.config, required=CONFIG_FIELDS + needs)
+        require_fields(data, CONFIG_FIELDS + needs, self.config)
         self.refuse_pickles()  # a shared run with pickled checkpoints is converted before any use
         tasks = data["tasks"]
         if not isinstance(tasks, list) or not all(isinstance(t, dict) and "name" in t for t in tasks):
@@ -296,7 +296,7 @@ class RunFolder:
         try:
             return RunResults.from_dict(data)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            what = f"field {exc.args[0]!r} missing" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
+            what = f"field {exc.args[0]!r} missing" if isinstance(exc, KeyError) else first_line(exc)
             raise FileFormatError(f"{self.results} is not a libero-bench results file ({what})") from None
 
     def rollout_recording(

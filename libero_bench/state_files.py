@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_data.errors import CheckpointError
+from libero_data.errors import CheckpointError, first_line
 from libero_data.runtime.files import write_bytes
 
 if TYPE_CHECKING:
@@ -70,7 +70,7 @@ def load_state(path: Path, *, kind: str, device: str = "cpu") -> Any:
             metadata = f.metadata() or {}
             tensors = {name: f.get_tensor(name) for name in f.keys()}  # noqa: SIM118 (not a dict)
     except (SafetensorError, OSError, ValueError) as exc:
-        raise CheckpointError(f"{path} is not a safetensors file ({_first_line(exc)})") from None
+        raise CheckpointError(f"{path} is not a safetensors file ({first_line(exc)})") from None
     found = metadata.get(KIND_KEY)
     if found != kind:
         what = f"a {found}" if found else "bare weights"
@@ -78,7 +78,7 @@ def load_state(path: Path, *, kind: str, device: str = "cpu") -> Any:
     try:
         return _decode(json.loads(metadata[TREE_KEY]), tensors)
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
-        raise CheckpointError(f"{path} has a damaged {kind} header ({_first_line(exc)})") from None
+        raise CheckpointError(f"{path} has a damaged {kind} header ({first_line(exc)})") from None
 
 
 def load_weights(path: Path, *, device: str = "cpu") -> dict[str, torch.Tensor]:
@@ -95,17 +95,12 @@ def load_weights(path: Path, *, device: str = "cpu") -> dict[str, torch.Tensor]:
             if kind is None:
                 return {name: f.get_tensor(name) for name in f.keys()}  # noqa: SIM118
     except (SafetensorError, OSError, ValueError) as exc:
-        raise CheckpointError(f"{path} is not a safetensors file ({_first_line(exc)})") from None
+        raise CheckpointError(f"{path} is not a safetensors file ({first_line(exc)})") from None
     state = load_state(path, kind=kind, device=device)
     weights = state.get("policy") if isinstance(state, dict) else None
     if not isinstance(weights, dict):
         raise CheckpointError(f"{path} is a {kind} without policy weights")
     return weights
-
-
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
 
 
 # -- the structure as JSON ---------------------------------------------------------------------------

@@ -13,6 +13,13 @@ and the command line maps it to its option (``episodes_per_task`` -> ``--episode
 from __future__ import annotations
 
 
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (its type's name when it has none): what a
+    one-sentence error quotes of a library's longer one."""
+    lines = str(exc).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
+
+
 class LiberoDataError(Exception):
     """Base of the expected failures: bad input or a folder in the wrong state."""
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from libero_data.errors import DatasetError, MissingFileError
+from libero_data.errors import DatasetError, MissingFileError, first_line
 from libero_data.runtime.files import read_json
 
 #: The LeRobot dataset format versions these tools read.
@@ -34,9 +34,8 @@ def readable_dataset(root: Path) -> dict[str, Any]:
             f"{info_path} says LeRobot dataset format {version or '(none)'}; these tools read {FORMAT}x "
             "(convert older datasets with lerobot's convert_dataset_v21_to_v30)"
         )
-    for name in ("libero.json",):
-        if (root / "meta" / name).is_file():
-            read_json(root / "meta" / name)
+    if (root / "meta" / "libero.json").is_file():
+        read_json(root / "meta" / "libero.json")
     _check_tables(root)
     return info
 
@@ -54,5 +53,4 @@ def _check_tables(root: Path) -> None:
             try:
                 pq.read_metadata(path)
             except Exception as exc:  # pyarrow's errors for a damaged file vary by damage
-                first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-                raise DatasetError(f"{path} is not a readable Parquet file ({first})") from None
+                raise DatasetError(f"{path} is not a readable Parquet file ({first_line(exc)})") from None

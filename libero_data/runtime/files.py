@@ -51,12 +51,19 @@ def read_json(path: Path, *, required: tuple[str, ...] = ()) -> Any:
             f"{path} is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
         ) from None
     if required:
-        if not isinstance(data, dict):
-            raise FileFormatError(f"{path} holds a JSON {type(data).__name__}, not an object")
-        missing = [k for k in required if k not in data]
-        if missing:
-            raise FileFormatError(f"{path} has no {', '.join(repr(k) for k in missing)} field")
+        require_fields(data, required, path)
     return data
+
+
+def require_fields(data: Any, fields: tuple[str, ...], path: Path) -> None:
+    """One sentence naming ``path`` unless ``data`` (read from it) is an object with ``fields``."""
+    from libero_data.errors import FileFormatError
+
+    if not isinstance(data, dict):
+        raise FileFormatError(f"{path} holds a JSON {type(data).__name__}, not an object")
+    missing = [k for k in fields if k not in data]
+    if missing:
+        raise FileFormatError(f"{path} has no {', '.join(repr(k) for k in missing)} field")
 
 
 def read_json_lines(path: Path) -> list[Any]:
