@@ -276,6 +276,7 @@ def resolve_eval_task(
         task_emb=np.asarray(task_emb, dtype=np.float32),
         init_states=inits,
         heldout=tuple(heldout_starts(task.name, heldout, avoid=_sampler_seeds(source, task))),
+        suite=task.suite,
     )
 
 

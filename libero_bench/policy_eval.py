@@ -33,6 +33,7 @@ from libero_data.errors import InputError
 from libero_data.pipeline.request import state_width
 from libero_data.runtime.files import read_json, write_json, write_text
 from libero_data.runtime.folder import WorkFolder
+from libero_data.tasks.horizons import SUITE, StepLimit, check_step_limit, limit_text, step_limit
 
 EVAL_FORMAT = "libero-bench-eval/1"
 
@@ -48,7 +49,7 @@ class EvalRequest:
     tasks: tuple[str, ...]
     stored: int = 20
     heldout: int = 20
-    max_steps: int = 300
+    max_steps: StepLimit = SUITE  # steps, or each task's suite limit (libero_data.tasks.horizons)
     settle: int = 10
     render_quality: str = "full"
     image_size: int | None = None
@@ -71,8 +72,7 @@ class EvalRequest:
                 raise InputError(f"the number of {name} starts must not be negative", field=name)
         if self.stored + self.heldout == 0:
             raise InputError("evaluate from at least one start", field="stored")
-        if self.max_steps <= 0:
-            raise InputError("the step limit must be positive", field="max_steps")
+        check_step_limit(self.max_steps)
 
 
 def resolve_tasks(refs: Sequence[str]) -> list[Any]:
@@ -129,11 +129,17 @@ def _eval_task(task: Any, position: int, heldout: int, avoid: set[int]) -> EvalT
         task_emb=np.zeros(1, dtype=np.float32),
         init_states=inits,
         heldout=tuple(heldout_starts(task.name, heldout, avoid=avoid)),
+        suite=task.suite,
     )
 
 
 def _jobs(
-    request: EvalRequest, tasks: list[EvalTask], size: int, width: int, folder: RunFolder
+    request: EvalRequest,
+    tasks: list[EvalTask],
+    limits: Mapping[str, int],
+    size: int,
+    width: int,
+    folder: RunFolder,
 ) -> list[RolloutJob]:
     jobs = []
     for task in tasks:
@@ -147,7 +153,7 @@ def _jobs(
                         r,
                         key=key,
                         settle=request.settle,
-                        max_steps=request.max_steps,
+                        max_steps=limits[task.name],
                         image_size=size,
                         sim_state_width=width,
                         shard_dir=folder.shard(key).relative_to(folder.root),
@@ -168,6 +174,7 @@ def evaluate_policy(
     on_result: Callable[[RolloutResult], None] | None = None,
     on_total: Callable[[int], None] | None = None,
     heldout_seeds: Mapping[str, Sequence[int]] | None = None,
+    step_limits: Mapping[str, int] | None = None,
     source: PolicySource | None = None,
     keep_work: bool = False,
 ) -> dict[str, Any]:
@@ -176,7 +183,8 @@ def evaluate_policy(
     unless ``keep_work``; the same command on the finished folder then rewrites the report only.
 
     ``heldout_seeds`` (task name -> seeds) replaces a task's own held-out placements, so that
-    variants of one task are rolled out from the same placements (libero_bench.robustness);
+    variants of one task are rolled out from the same placements (libero_bench.robustness), and
+    ``step_limits`` (task name -> steps) replaces a task's step limit (a variant takes its source's);
     ``source`` is the request's policy when the caller has opened it already (``policy_source``)."""
     from libero_data.runtime.versions import versions
 
@@ -196,6 +204,8 @@ def evaluate_policy(
         len(e.init_states[0]) if e.init_states is not None else state_width(t)
         for e, t in zip(eval_tasks, tasks, strict=True)
     )
+    limits = {e.name: step_limit(request.max_steps, e.suite) for e in eval_tasks}
+    limits.update({name: n for name, n in (step_limits or {}).items() if name in limits})
     folder = RunFolder(Path(out).resolve())
     settings = {
         "format": EVAL_FORMAT,
@@ -203,7 +213,13 @@ def evaluate_policy(
         "policy_type": source.policy_type,
         "inputs": source.inputs,
         "tasks": [
-            {"position": e.position, "name": e.name, "language": e.language, "bddl": e.env_ref}
+            {
+                "position": e.position,
+                "name": e.name,
+                "language": e.language,
+                "bddl": e.env_ref,
+                "max_steps": limits[e.name],
+            }
             for e in eval_tasks
         ],
         "training_data": dataset,
@@ -222,7 +238,11 @@ def evaluate_policy(
     sessions = saved.get("sessions", [])
     joined = bool(saved.get("complete")) and (folder.rollouts / "meta" / "info.json").is_file()
     finished = {r["key"] for r in done if joined or (folder.shard(r["key"]) / "episode.json").is_file()}
-    jobs = [j for j in _jobs(request, eval_tasks, source.render_size, width, folder) if j.key not in finished]
+    jobs = [
+        j
+        for j in _jobs(request, eval_tasks, limits, source.render_size, width, folder)
+        if j.key not in finished
+    ]
     records = [r for r in done if r["key"] in finished]
     if on_total:
         on_total(len(jobs) + len(records))
@@ -300,12 +320,14 @@ def summarize(
     how many rollouts the step limit cut (failed having taken every step they were allowed)."""
     rows = []
     totals = {start: Rate(0, 0) for start in STARTS}
-    limit = int(settings["request"]["max_steps"])
     for task in settings["tasks"]:
         mine_all = [r for r in records if r["task_position"] == task["position"]]
+        # Folders made before per-task limits hold one number in the request.
+        limit = int(task.get("max_steps") or settings["request"]["max_steps"])
         row: dict[str, Any] = {
             "task": task["name"],
             "language": task["language"],
+            "max_steps": limit,
             "cut": sum(1 for r in mine_all if not r["success"] and int(r["steps"]) >= limit),
         }
         for start in STARTS:
@@ -339,7 +361,7 @@ def summarize(
     return {
         "policy": settings["request"]["policy"],
         "policy_type": settings["policy_type"],
-        "max_steps": limit,
+        "max_steps": settings["request"]["max_steps"],
         "tasks": rows,
         "all": {
             **{start: totals[start].to_dict() if totals[start].n else None for start in STARTS},
@@ -360,15 +382,16 @@ def markdown(summary: dict[str, Any]) -> str:
         "",
         f"Policy: `{summary['policy']}`. Success with n and 95% Wilson interval; stored: LIBERO's stored init "
         "states (the paper's protocol); held out: placements no training demonstration started from. "
-        f"Cut: rollouts that failed having taken all {summary.get('max_steps', '?')} steps of the limit "
-        "(a longer limit might have let them finish).",
+        f"Step limit: {limit_text(summary.get('max_steps', '?'))}. Cut: rollouts that failed having taken "
+        "every step of their task's limit (a longer limit might have let them finish).",
         "",
-        "| task | stored starts | held-out starts | cut by the step limit |",
-        "|---|---:|---:|---:|",
+        "| task | stored starts | held-out starts | step limit | cut by the step limit |",
+        "|---|---:|---:|---:|---:|",
     ]
     for row in [*summary["tasks"], {"task": "**all tasks**", **summary["all"]}]:
         lines.append(
-            f"| {row['task']} | {cell(row[STORED])} | {cell(row[HELDOUT])} | {row.get('cut', '–')} |"
+            f"| {row['task']} | {cell(row[STORED])} | {cell(row[HELDOUT])} | {row.get('max_steps', '')} "
+            f"| {row.get('cut', '–')} |"
         )
     lines += [f"\n- note: {n}" for n in summary["notes"]]
     return "\n".join(lines) + "\n"

@@ -16,6 +16,7 @@ from typing import Any
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.registry import Registry
+from libero_data.tasks.horizons import SUITE, StepLimit
 
 #: Model sizes every policy has (libero_bench.policies.config_base); kept here so that
 #: presets load without torch.
@@ -45,7 +46,9 @@ class TrainPreset(Config):
     eval_first_epoch: bool = True  # evaluate epoch 0 too (before any training)
     eval_rollouts: int = 20  # from LIBERO's stored init states (the paper's protocol)
     eval_heldout: int = 20  # from held-out sampler placements no demonstration started from
-    eval_max_steps: int = 600
+    eval_max_steps: StepLimit = (
+        600  # LIBERO's; or "suite": each task's suite limit (libero_data.tasks.horizons)
+    )
     eval_settle: int = 10  # no-op steps after reset before the policy acts (LIBERO waits too)
     eval_render_quality: str = "full"  # "fast": rollouts drawn from simplified meshes (libero_data.sim)
     keep_best: bool = True  # keep the checkpoint with the best success while learning a task
@@ -61,7 +64,6 @@ class TrainPreset(Config):
             "image_size",
             "eval_every",
             "eval_rollouts",
-            "eval_max_steps",
         ):
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
@@ -73,6 +75,15 @@ class TrainPreset(Config):
         ):
             self._fail("eval_settle", "must be a non-negative integer")
         self._check_non_negative("eval_heldout")
+        if not (
+            self.eval_max_steps == SUITE
+            or (
+                isinstance(self.eval_max_steps, int)
+                and not isinstance(self.eval_max_steps, bool)
+                and self.eval_max_steps > 0
+            )
+        ):
+            self._fail("eval_max_steps", f"must be a positive number of steps or {SUITE!r}")
         self._check_choice("eval_render_quality", ("full", "fast"))
         if not isinstance(self.eval_first_epoch, bool):
             self._fail("eval_first_epoch", "must be true or false")

@@ -22,6 +22,7 @@ import numpy as np
 
 from libero_bench.intervals import Rate
 from libero_data.errors import InputError
+from libero_data.tasks.horizons import SUITE, StepLimit, check_step_limit, limit_text, step_limit
 
 #: The sweep's files, inside its folder.
 VARIANTS = "variants"
@@ -36,7 +37,7 @@ class SweepRequest:
     kinds: tuple[str, ...]
     levels: tuple[int, ...] = (1, 2, 3, 4, 5)
     rollouts: int = 10  # per cell, from held-out placements (the same at every level)
-    max_steps: int = 300
+    max_steps: StepLimit = SUITE  # steps, or each source task's suite limit (libero_data.tasks.horizons)
     settle: int = 10
     seed: int = 0
     render_quality: str = "full"
@@ -57,8 +58,15 @@ class SweepRequest:
             raise InputError("no robustness kinds chosen", field="kinds")
         if not self.levels or any(level not in LEVELS for level in self.levels):
             raise InputError(f"levels must be among 1..5, got {self.levels}", field="levels")
-        if self.rollouts <= 0 or self.max_steps <= 0:
-            raise InputError("rollouts per cell and the step limit must be positive", field="rollouts")
+        if self.rollouts <= 0:
+            raise InputError("rollouts per cell must be positive", field="rollouts")
+        check_step_limit(self.max_steps)
+
+    def step_limits(self) -> dict[str, int]:
+        """Per source task name: the steps its rollouts (and its variants') may take."""
+        from libero_data.tasks import get_task
+
+        return {get_task(ref).name: step_limit(self.max_steps, get_task(ref).suite) for ref in self.tasks}
 
 
 @dataclass(frozen=True)
@@ -173,8 +181,8 @@ def markdown(summary: dict[str, Any], levels: tuple[int, ...]) -> str:
         f"Success per kind and level, pooled over {len(summary['request']['tasks'])} task(s), "
         f"{summary['request']['rollouts']} held-out placements per task and cell (the same at every level), "
         "with 95% Wilson intervals and the drop from the unperturbed tasks (level 0: "
-        f"{cell(base)}, {base['successes']}/{base['n']}). Rollouts of at most "
-        f"{summary['request']['max_steps']} steps with `{summary['request']['render_quality']}` images; "
+        f"{cell(base)}, {base['successes']}/{base['n']}). Step limit: {_limits(summary)}; "
+        f"`{summary['request']['render_quality']}` images; "
         f"variants drawn with seed {summary['request']['seed']}.",
         "",
         "| kind | " + " | ".join(f"level {level}" for level in levels) + " |",
@@ -232,3 +240,14 @@ def write_report(folder: Path, summary: dict[str, Any], levels: tuple[int, ...])
         heatmap(summary, levels, folder / f"{REPORT}.png"),
     ]
     return paths
+
+
+def _limits(summary: dict[str, Any]) -> str:
+    """The step limit as a report states it: the number, or each source task's (a variant takes
+    its source's)."""
+    limits = summary.get("step_limits") or {}
+    if summary["request"]["max_steps"] != SUITE or not limits:
+        return limit_text(summary["request"]["max_steps"])
+    return "each task's suite limit (LeRobot's), " + ", ".join(
+        f"{n} for {name}" for name, n in limits.items()
+    )

@@ -133,6 +133,7 @@ def _jobs(
     from libero_bench.run_files import HELDOUT
 
     jobs_by_position: dict[int, list[Any]] = {}
+    limits = request.step_limits()
     for i, cell in enumerate(live):
         position = names.index(cell.source)
         task = EvalTask(
@@ -153,7 +154,7 @@ def _jobs(
                     r,
                     key=key,
                     settle=request.settle,
-                    max_steps=request.max_steps,
+                    max_steps=limits[cell.source],
                     image_size=int(preset["image_size"]),
                     sim_state_width=width,
                     shard_dir=f"shards/{key}",

@@ -57,6 +57,7 @@ def sweep(
         "policy": ref,
         "policy_name": name,
         "request": dataclasses.asdict(request),
+        "step_limits": request.step_limits(),
         "versions": versions(),
         "table": table(cells, outcomes, request.kinds, request.levels),
     }
@@ -82,6 +83,7 @@ def _lerobot_outcomes(
     _, starts = training_starts(Path(policy)) if not is_server(policy) else (None, {})
     seeds = heldout_seeds(request, {name: s[1] for name, s in starts.items()})
     by_name = {c.name: seeds[c.source] for c in cells if not c.reason}
+    limits = request.step_limits()
     summary = evaluate_policy(
         EvalRequest(
             policy,
@@ -99,6 +101,7 @@ def _lerobot_outcomes(
         on_result=on_result,
         on_total=on_total,
         heldout_seeds=by_name,
+        step_limits={c.name: limits[c.source] for c in cells if not c.reason},
         keep_work=keep_work,
     )
     records = json.loads((out / "eval" / "results.json").read_text())["rollouts"]

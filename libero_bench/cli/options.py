@@ -82,3 +82,14 @@ KeepRollouts = Annotated[
         "the finished folder holds the results, report, rollouts and recordings only.",
     ),
 ]
+
+MaxSteps = Annotated[
+    str,
+    typer.Option(
+        "--max-steps",
+        help="Steps before a rollout is cut: a number, or 'suite' for each task's suite limit "
+        "(LeRobot's LIBERO limits: libero_spatial 280, libero_object 280, libero_goal 300, "
+        "libero_10 520, libero_90 400; other tasks 500).",
+        show_default=True,
+    ),
+]

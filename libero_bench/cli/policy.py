@@ -13,6 +13,7 @@ from libero_bench.cli.options import (
     Device,
     EnvWorkers,
     KeepRollouts,
+    MaxSteps,
     ReplanSteps,
     SentImageSize,
     Server,
@@ -61,9 +62,7 @@ def eval_cmd(
             min=0,
         ),
     ] = 20,
-    max_steps: Annotated[
-        int, typer.Option("--max-steps", help="Steps before a rollout is cut.", min=1)
-    ] = 300,
+    max_steps: MaxSteps = "suite",
     server: Server = None,
     device: Device = None,
     workers: EnvWorkers = 1,
@@ -90,6 +89,7 @@ def eval_cmd(
     from libero_bench.rollouts.loop import Execution
     from libero_bench.rollouts.sources import policy_source
     from libero_data.errors import InputError
+    from libero_data.tasks.horizons import parse_step_limit
 
     if not tasks:
         raise InputError("name the tasks to evaluate on", field="tasks")
@@ -100,7 +100,7 @@ def eval_cmd(
         tuple(split_list(tasks)),
         stored,
         heldout,
-        max_steps,
+        parse_step_limit(max_steps),
         render_quality=render_quality,
         image_size=image_size,
         replan_steps=replan_steps,

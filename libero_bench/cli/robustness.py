@@ -12,6 +12,7 @@ from libero_bench.cli.options import (
     Device,
     EnvWorkers,
     KeepRollouts,
+    MaxSteps,
     ReplanSteps,
     SentImageSize,
     Server,
@@ -61,9 +62,7 @@ def robustness_cmd(
     rollouts: Annotated[
         int, typer.Option("--rollouts", "-n", help="Rollouts per task and cell (held-out placements).", min=1)
     ] = 10,
-    max_steps: Annotated[
-        int, typer.Option("--max-steps", help="Steps before a rollout is cut.", min=1)
-    ] = 300,
+    max_steps: MaxSteps = "suite",
     seed: Annotated[
         int, typer.Option("--seed", help="Seed of the variants (which values each level draws).")
     ] = 0,
@@ -92,6 +91,7 @@ def robustness_cmd(
     from libero_bench.rollouts.loop import Execution
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS
+    from libero_data.tasks.horizons import parse_step_limit
 
     if not tasks:
         raise InputError("name the source tasks to perturb", field="tasks")
@@ -108,7 +108,7 @@ def robustness_cmd(
         kinds=tuple(split_list(kinds) or KINDS),
         levels=tuple(sorted(set(chosen_levels))),
         rollouts=rollouts,
-        max_steps=max_steps,
+        max_steps=parse_step_limit(max_steps),
         seed=seed,
         render_quality=render_quality,
         image_size=image_size,

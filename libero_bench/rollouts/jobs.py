@@ -19,6 +19,7 @@ import numpy as np
 from libero_bench.run_files import HELDOUT, STORED
 from libero_data.seeding import rollout_start
 from libero_data.sim.arm import ARM_INIT_NOISE
+from libero_data.tasks.horizons import StepLimit, step_limit
 
 
 @dataclass(frozen=True)
@@ -37,6 +38,7 @@ class EvalTask:
     task_emb: np.ndarray = field(repr=False)
     init_states: np.ndarray | None = field(default=None, repr=False)  # (n, state_dim) or None
     heldout: tuple[int, ...] = ()
+    suite: str = ""  # the task's suite: its step limit when rollouts take the suite's
 
     def start(self, rollout: int, start: str = STORED) -> tuple[np.ndarray | None, int, int]:
         """(init state, init index, seed) of rollout number ``rollout`` from a ``start`` kind."""
@@ -88,7 +90,7 @@ def make_job(
     *,
     key: str,
     settle: int,
-    max_steps: int,
+    max_steps: StepLimit,
     image_size: int,
     sim_state_width: int,
     shard_dir: str | Path,
@@ -98,7 +100,11 @@ def make_job(
     render_quality: str = "full",
     arm_noise: float = ARM_INIT_NOISE,
 ) -> RolloutJob:
+    """Rollout number ``rollout`` of ``task`` from a ``start`` kind; ``max_steps`` a number of
+    steps or ``"suite"`` (the task's suite's limit, :mod:`libero_data.tasks.horizons`), recorded
+    in the rollout's tags either way."""
     init_state, init_index, env_seed = task.start(rollout, start)
+    limit = step_limit(max_steps, task.suite)
     return RolloutJob(
         key=key,
         env_ref=task.env_ref,
@@ -109,12 +115,19 @@ def make_job(
         init_index=init_index,
         env_seed=env_seed,
         settle=settle,
-        max_steps=max_steps,
+        max_steps=limit,
         image_size=image_size,
         sim_state_width=sim_state_width,
         shard_dir=str(shard_dir),
         rrd_path=str(rrd_path),
-        tags={**tags, "rollout": rollout, "start": start, "init_index": init_index, "env_seed": env_seed},
+        tags={
+            **tags,
+            "rollout": rollout,
+            "start": start,
+            "init_index": init_index,
+            "env_seed": env_seed,
+            "max_steps": limit,
+        },
         start=start,
         render_quality=render_quality,
         arm_noise=arm_noise,

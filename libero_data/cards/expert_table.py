@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from libero_data.errors import FileFormatError, MissingFileError
 from libero_data.runtime.files import write_text
+from libero_data.tasks.horizons import HUMAN_LONGEST
 
 if TYPE_CHECKING:
     from libero_data.experts.report import TaskResult
@@ -32,15 +33,6 @@ TARGETS = {
 }
 #: Every task's rate is held to this floor (the same way: its interval must reach it).
 TASK_FLOOR = 0.5
-#: The longest of LIBERO's human demonstrations per suite, in control steps (20 Hz), as openpi's
-#: LIBERO example states them when it sets its evaluation step limits.
-HUMAN_LONGEST = {
-    "libero_spatial": 193,
-    "libero_object": 254,
-    "libero_goal": 270,
-    "libero_10": 505,
-    "libero_90": 373,
-}
 
 
 def length_summary(lengths: list[int]) -> dict[str, float]:

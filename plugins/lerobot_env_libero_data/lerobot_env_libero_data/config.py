@@ -22,7 +22,10 @@ class LiberoDataEnvConfig(EnvConfig):
 
     task: str = "libero_object/0"
     fps: int = 20
-    episode_length: int = 300  # steps before an episode is cut (LIBERO's own evaluation: 600)
+    # Steps before an episode is cut; None: the task's suite limit, as LeRobot's LIBERO env
+    # (libero_spatial 280, libero_object 280, libero_goal 300, libero_10 520, libero_90 400,
+    # other tasks 500; LIBERO's paper gives every task 600).
+    episode_length: int | None = None
     image_size: int = 256  # square camera images, as LeRobot's LIBERO datasets
     starts: str = "stored"  # "stored" (LIBERO's init states) or "heldout" (held-out placements)
     agentview_key: str = "image"  # observation.images.<agentview_key>
@@ -37,7 +40,7 @@ class LiberoDataEnvConfig(EnvConfig):
             raise ValueError(f"--env.starts must be {' or '.join(STARTS)}, got {self.starts!r}")
         if self.render_quality not in ("full", "fast"):
             raise ValueError(f"--env.render_quality must be full or fast, got {self.render_quality!r}")
-        if self.image_size <= 0 or self.episode_length <= 0:
+        if self.image_size <= 0 or (self.episode_length is not None and self.episode_length <= 0):
             raise ValueError("--env.image_size and --env.episode_length must be positive")
         image = PolicyFeature(type=FeatureType.VISUAL, shape=(self.image_size, self.image_size, 3))
         self.features = {

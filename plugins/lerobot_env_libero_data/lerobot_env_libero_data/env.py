@@ -58,18 +58,20 @@ class LiberoDataGymEnv(gym.Env):
         image_size: int = 256,
         starts: str = "stored",
         keys: tuple[str, str] = ("image", "image2"),
-        max_steps: int = 300,
+        max_steps: int | None = None,
         settle: int = 10,
         render_quality: str = "full",
     ) -> None:
         from libero_data.tasks import get_task
+        from libero_data.tasks.horizons import SUITE, step_limit
 
         super().__init__()
         self._task = get_task(task_ref)
         self.task = self._task.name
         self.task_description = self._task.language
         self.render_mode = "rgb_array"
-        self._max_episode_steps = max_steps
+        # None: the task's suite limit (LeRobot's LIBERO limits; libero_data.tasks.horizons).
+        self._max_episode_steps = step_limit(SUITE if max_steps is None else max_steps, self._task.suite)
         self._image_size, self._starts, self._keys, self._settle = image_size, starts, keys, settle
         self._render_quality = render_quality
         self._next = episode_index
