@@ -6,7 +6,7 @@ again after the environment has stepped. ``yield from`` chains motions into skil
 
 from __future__ import annotations
 
-from collections.abc import Generator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +24,9 @@ HOLD = 0.0  # keeps the gripper's current set-point (robosuite integrates the si
 #: [-1, 1] range per substep, 25 substeps per step, over an 8 cm stroke).
 CLOSING_PER_STEP = 0.01
 FULL_OPENING = 0.08
+#: Descents onto an object and lowerings of a held one go at twice their pace until this far
+#: (m) from where they end.
+SLOW_BELOW = 0.03
 
 Actions = Generator[np.ndarray, None, bool]
 
@@ -36,6 +39,7 @@ class Style:
     turn_speed: float = 1.6  # rad/s
     noise: float = 0.0  # std of Gaussian noise on the 6 motion components of each action
     lead: float = 2.2  # how far ahead of the arm the set-point runs, in control steps
+    tempo: float = 1.0  # factor on turns and on the fine motions' own speeds (descents, pulls)
 
 
 class Motion:
@@ -67,11 +71,21 @@ class Motion:
         rot_tol: float = 0.06,
         max_steps: int = 120,
         min_steps: int = 0,
+        until: Callable[[], bool] | None = None,
+        stall: int | None = None,
     ) -> Actions:
-        """Drive the grip site to ``pos`` (and orientation ``mat``); True when reached."""
+        """Drive the grip site to ``pos`` (and orientation ``mat``); True when reached.
+
+        For a target beyond what the hand can get to (pressing into the table, pulling a
+        drawer past its stop): ``until`` ends the move, True, as soon as it holds (the drawer
+        is open), and ``stall`` ends it, False, once that many steps have not brought the hand
+        1 mm (or 0.02 rad) closer (the stop is reached, the wrist turns no further here)
+        instead of pushing on for ``max_steps``.
+        """
         pos = np.asarray(pos, dtype=np.float64)
-        v = (speed or self.style.speed) * CONTROL_DT * self.style.lead
-        w = self.style.turn_speed * CONTROL_DT * self.style.lead
+        v = (self.style.speed if speed is None else speed * self.style.tempo) * CONTROL_DT * self.style.lead
+        w = self.style.turn_speed * self.style.tempo * CONTROL_DT * self.style.lead
+        closest, since = np.inf, 0
         for step in range(max_steps):
             cur = self.scene.eef_pos()
             err = pos - cur
@@ -80,6 +94,15 @@ class Motion:
             angle = float(np.linalg.norm(rot))
             if step >= min_steps and dist < tol and angle < rot_tol:
                 return True
+            if until is not None and until():
+                return True
+            remaining = dist + 0.05 * angle  # a radian to turn counts as 5 cm to go
+            if remaining < closest - 0.001:
+                closest, since = remaining, 0
+            else:
+                since += 1
+                if stall is not None and since >= stall:
+                    return False
             dp = err if dist <= v else err / dist * v
             dr = rot if angle <= w else rot / angle * w
             yield self._action(dp, dr)

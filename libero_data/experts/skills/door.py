@@ -64,10 +64,12 @@ def _swing(ctx: Context, part: Part, sign: float, predicate: str) -> Actions:
         here = ctx.scene.eef_pos()
         if np.linalg.norm(here[:2] - behind[:2]) > 0.04 or abs(here[2] - z) > 0.03:
             yield from lift(ctx, door.z_top + 0.06)
+            # Where the arm cannot get there (the door's far side out of reach), the swing
+            # goes on from where the hand stopped rather than pressing on for 120 steps.
             yield from ctx.motion.move(
-                np.array([*behind[:2], door.z_top + 0.06]), mat, tol=0.015, max_steps=120
+                np.array([*behind[:2], door.z_top + 0.06]), mat, tol=0.015, max_steps=120, stall=8
             )
-            yield from ctx.motion.move(behind, mat, speed=0.12, tol=0.008, max_steps=50)
+            yield from ctx.motion.move(behind, mat, speed=0.12, tol=0.008, max_steps=50, stall=8)
         ahead = rot_z(sign * 0.35 * np.sign(door.axis[2]))
         target = door.anchor[:2] + (ahead[:2, :2] @ (contact - door.anchor[:2])) - swing * 0.01
         yield from ctx.motion.move(np.array([*target, z]), ahead @ mat, speed=0.15, tol=0.01, max_steps=25)

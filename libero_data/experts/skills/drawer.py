@@ -128,6 +128,12 @@ def _clear_above(ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, 
     return not bool(above.any())
 
 
+#: How close (rad) the hand turns before it travels to a handle: the rest comes on the way
+#: (waiting for the wrist took up to 40 steps, and where the arm's pose keeps the wrist from
+#: turning in place, the turn stops once it no longer gains).
+PRE_TURN = 0.2
+
+
 def _hook_open(ctx: Context, part: Part, region: str) -> Actions:
     """Open a drawer without a grasp: closed finger tips go in behind the handle bar from above
     and the hand drags the drawer out while pressing down (the tips wedge in the gap).
@@ -147,7 +153,7 @@ def _hook_open(ctx: Context, part: Part, region: str) -> Actions:
         tip = np.array([centre[0], centre[1], top + 0.012]) - out * (HOOK_BEHIND + ctx.jitter(0.002))
         site = tip - approach * TIP_BELOW_SITE
         yield from lift(ctx, site[2] + 0.08)
-        yield from ctx.motion.move(scene.eef_pos(), mat, tol=0.02, max_steps=40)
+        yield from ctx.motion.move(scene.eef_pos(), mat, tol=0.02, rot_tol=PRE_TURN, max_steps=40, stall=5)
         yield from ctx.motion.move(site + out * 0.06 + up * 0.05, mat, tol=0.01, max_steps=120)
         yield from ctx.motion.move(site + up * 0.01, mat, speed=0.1, tol=0.006, max_steps=80)
         # Press the tips down behind the bar, then drag it out, still pressing.
@@ -155,7 +161,18 @@ def _hook_open(ctx: Context, part: Part, region: str) -> Actions:
         yield from ctx.motion.move(site - down, mat, speed=0.08, tol=0.001, max_steps=15)
         start = scene.eef_pos()
         goal = start + out * (full - part.opened_by(ctx) + 0.02) - down
-        yield from ctx.motion.move(goal, mat, speed=0.08, tol=0.006, max_steps=60)
+        # The drawer's friction holds the hand back to ~1.5 mm per step at the set-point's
+        # 0.08 m/s (a 17-cm drawer took two hooks of 60 steps): pull harder, and on until it
+        # is out or the hook slips (the hand no longer gains on the goal).
+        yield from ctx.motion.move(
+            goal,
+            mat,
+            speed=0.16,
+            tol=0.006,
+            max_steps=150,
+            until=lambda: _pulled_out(ctx, part, region),
+            stall=6,
+        )
         yield from ctx.motion.move(scene.eef_pos() + up * 0.06 + out * 0.02, mat, tol=0.02, max_steps=30)
         if holds(ctx, "Open", region):
             return True
@@ -187,6 +204,12 @@ class OpenDrawer(Skill):
         return (yield from _hook_open(ctx, part, region))
 
 
+def _pulled_out(ctx: Context, part: Part, region: str) -> bool:
+    """Open, and out to within 3% of its stop: the most room in front of the cabinet."""
+    full = abs(part.joint.range[1] - part.joint.range[0])
+    return bool(holds(ctx, "Open", region)) and part.opened_by(ctx) >= 0.97 * full
+
+
 def _grasp_open(ctx: Context, part: Part, region: str, pitches: list[float]) -> Actions:
     """Grasp the handle at the first of ``pitches`` the arm reaches and pull the drawer out.
 
@@ -206,7 +229,9 @@ def _grasp_open(ctx: Context, part: Part, region: str, pitches: list[float]) -> 
         pre = grip - approach * 0.09 + np.array([0, 0, 0.02])
         # Turn the hand first, high above the table, then travel: turning on the way makes
         # the arm drift sideways near the edge of its workspace.
-        yield from ctx.motion.move(ctx.scene.eef_pos(), mat, tol=0.02, max_steps=40)
+        yield from ctx.motion.move(
+            ctx.scene.eef_pos(), mat, tol=0.02, rot_tol=PRE_TURN, max_steps=40, stall=5
+        )
         yield from ctx.motion.move(pre, mat, tol=0.01, max_steps=120)
         error = ctx.scene.eef_pos() - pre
         along = float(abs(error @ bar))  # sliding along the bar still grips it
@@ -231,10 +256,18 @@ def _grasp_open(ctx: Context, part: Part, region: str, pitches: list[float]) -> 
     start = ctx.scene.eef_pos()
     travel = full - part.opened_by(ctx) + 0.01 + ctx.jitter(0.004)
     for _ in range(4):
-        if holds(ctx, "Open", region) and part.opened_by(ctx) >= 0.97 * full:
+        if _pulled_out(ctx, part, region):
             break
         goal = start + out * travel
-        yield from ctx.motion.move(goal, mat, speed=0.12, tol=0.006, max_steps=60)
+        yield from ctx.motion.move(
+            goal,
+            mat,
+            speed=0.12,
+            tol=0.006,
+            max_steps=60,
+            until=lambda: _pulled_out(ctx, part, region),
+            stall=6,
+        )
     yield from ctx.motion.set_gripper(OPEN, steps=6, mat=mat)
     back = ctx.scene.eef_pos() + out * 0.06 + np.array([0, 0, 0.05])
     yield from ctx.motion.move(back, mat, tol=0.02, max_steps=40)
@@ -326,7 +359,14 @@ class CloseDrawer(Skill):
             for _ in range(3):
                 if holds(ctx, "Close", region):
                     break
-                yield from ctx.motion.move(goal, mat, speed=0.15, tol=0.008, max_steps=60)
+                yield from ctx.motion.move(
+                    goal,
+                    mat,
+                    speed=0.15,
+                    tol=0.008,
+                    max_steps=60,
+                    until=lambda: holds(ctx, "Close", region),
+                )
                 if np.linalg.norm(ctx.scene.eef_pos() - goal) < 0.012:
                     break
             yield from ctx.motion.move(

@@ -162,10 +162,18 @@ def _lay_in_front(ctx: Context, site: Site, out: np.ndarray) -> Actions:
     yield from ctx.motion.set_gripper(OPEN, steps=8, mat=mat)
     ctx.held = None
     yield from ctx.motion.hold(6, mat)
+    # Either stroke may end against something (the far wall, the side): then on to the next.
     yield from ctx.motion.move(
-        scene.eef_pos() + inward * (0.06 + ctx.jitter(0.005)), mat, speed=0.05, tol=0.008, max_steps=40
+        scene.eef_pos() + inward * (0.06 + ctx.jitter(0.005)),
+        mat,
+        speed=0.05,
+        tol=0.008,
+        max_steps=40,
+        stall=6,
     )
-    yield from ctx.motion.move(scene.eef_pos() + across * 0.1, mat, speed=0.08, tol=0.01, max_steps=40)
+    yield from ctx.motion.move(
+        scene.eef_pos() + across * 0.1, mat, speed=0.08, tol=0.01, max_steps=40, stall=6
+    )
     yield from lift(ctx, scene.eef_pos()[2] + 0.06)
     return True
 

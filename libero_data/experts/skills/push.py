@@ -52,7 +52,9 @@ class Push(Skill):
             length = min(max(along, 0.02), 0.15) + 0.015 + ctx.jitter(0.004)
             # Aim a little below the start: pressing on the table keeps the tips at the foot.
             end = start + np.array([*(direction * length), -0.03])
-            yield from ctx.motion.move(end, mat, speed=0.1, tol=0.006, max_steps=80)
+            yield from ctx.motion.move(
+                end, mat, speed=0.1, tol=0.006, max_steps=80, until=lambda: scene.env.holds(atom), stall=6
+            )
             if np.linalg.norm(scene.pos(obj)[:2] - body) < 0.01:
                 useless.add(key)
         yield from lift(ctx, scene.eef_pos()[2] + 0.06)
@@ -160,7 +162,9 @@ def _press_drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions
         # The tips meet the rim about 2 cm short of the inset: push the rest of the way.
         length = min(dist + inset - 0.02, 0.25)
         end = start + np.array([*(way * length), -press])
-        yield from ctx.motion.move(end, mat, speed=0.08, tol=0.008, max_steps=100)
+        yield from ctx.motion.move(
+            end, mat, speed=0.08, tol=0.008, max_steps=100, until=lambda: scene.env.holds(atom), stall=6
+        )
     yield from lift(ctx, scene.eef_pos()[2] + 0.06)
     return bool(scene.env.holds(atom))
 
