@@ -8,7 +8,7 @@ import numpy as np
 
 from libero_data.experts.geometry import approach_frame, yaw_of_closing
 from libero_data.experts.grasp import MAX_OPENING, GraspSearch, has_top_down_grasp, plan_top_down
-from libero_data.experts.motion import CLOSE, OPEN, SLOW_BELOW, Actions
+from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import (
     SKILLS,
     Context,
@@ -170,10 +170,11 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         yield from ctx.motion.preshape(grasp.opening, mat=grasp.mat)
     descent = 0.12 + ctx.jitter(0.03)
     if not ctx.notes.get("insertion"):
-        # Twice the pace down to a few cm above the object, then slowly onto it. (Not for an
-        # object to be carried in from the side, whose grasp decides whether the hand fits:
-        # on libero_10/9 the mug then more often had to be laid in instead.)
-        near = grasp.pos - grasp.mat[:, 2] * (SLOW_BELOW + 0.01)
+        # Twice the pace down to 6 cm above the grasp, then slowly onto it: the finger tips
+        # stop 2-3 cm above a bowl's rim (4 cm above the grasp, they knocked it askew before the
+        # grasp). Not for an object to be carried in from the side, whose grasp decides whether
+        # the hand fits: on libero_10/9 the mug then more often had to be laid in instead.
+        near = grasp.pos - grasp.mat[:, 2] * DESCENT_SLOW
         yield from ctx.motion.move(near, grasp.mat, speed=2.0 * descent, tol=0.008, max_steps=40)
     reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=descent, tol=0.004)
     if not reached:
@@ -261,6 +262,8 @@ def _nudge_into_the_open(ctx: Context, obj: str, distance: float = 0.05) -> Acti
 #: deep as it (within SAME_DEPTH, m): a shallow rim grasp slips.
 GOOD_MARGIN = 1.0
 SAME_DEPTH = 0.004
+#: How far above the grasp (m) a descent slows down.
+DESCENT_SLOW = 0.06
 REACH_MARGIN = 1.5
 #: After a miss, grasps within this (m) of the missed one are skipped: what made it miss
 #: (a wall that tips, a burner under a finger) is usually still there 2 cm away.
