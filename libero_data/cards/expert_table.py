@@ -33,6 +33,17 @@ TARGETS = {
 }
 #: Every task's rate is held to this floor (the same way: its interval must reach it).
 TASK_FLOOR = 0.5
+#: The 95th percentile of each suite's demonstration lengths (control steps) is held to this:
+#: LIBERO's longest human demonstration of the suite where the expert's is within it, else the
+#: committed measurement rounded up to 10 steps, so that no change makes the demonstrations
+#: slower unnoticed (benchmarks/results/expert_lengths/, tests/experts/test_lengths.py).
+LENGTH_BOUNDS = {
+    "libero_spatial": 220,
+    "libero_object": HUMAN_LONGEST["libero_object"],
+    "libero_goal": 530,
+    "libero_10": HUMAN_LONGEST["libero_10"],
+    "libero_90": HUMAN_LONGEST["libero_90"],
+}
 
 
 def length_summary(lengths: list[int]) -> dict[str, float]:

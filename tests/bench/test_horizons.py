@@ -105,7 +105,13 @@ def test_the_report_states_each_tasks_limit_and_counts_cuts_against_it() -> None
     }
 
     def record(position: int, success: bool, steps: int) -> dict[str, object]:
-        return {"task_position": position, "start": "heldout", "success": success, "steps": steps, "init_index": -1}
+        return {
+            "task_position": position,
+            "start": "heldout",
+            "success": success,
+            "steps": steps,
+            "init_index": -1,
+        }
 
     # 300 steps is a cut for the 280-step task, not for the 520-step one.
     records = [record(0, False, 300), record(0, False, 520), record(1, False, 300), record(1, True, 200)]
