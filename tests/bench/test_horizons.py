@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from libero_bench.policy_eval import EvalRequest, markdown, summarize
+from libero_bench.eval_report import markdown, summarize
+from libero_bench.policy_eval import EvalRequest
 from libero_bench.presets import PAPER, QUICK, SMOKE, TrainPreset
 from libero_bench.robustness import SweepRequest
 from libero_bench.rollouts.jobs import EvalTask, make_job
