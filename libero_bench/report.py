@@ -50,6 +50,7 @@ def _run_row(run: RunSummary) -> dict[str, Any]:
         "eval_epochs": run.results.eval_epochs,
         "best_epoch": run.results.best_epoch[: run.tasks_done],
         "losses": run.results.losses[: run.tasks_done],
+        "step_limits": _step_limits(run),
         "notes": run.notes(),
     }
     for start in STARTS:
@@ -64,6 +65,18 @@ def _run_row(run: RunSummary) -> dict[str, Any]:
             **metric_summary([run.draws(start)]),
         }
     return row
+
+
+def _step_limits(run: RunSummary) -> dict[str, int]:
+    """Per task of the run: the steps its evaluation rollouts were allowed (its preset's
+    ``eval_max_steps``, a number or each task's suite limit; the dataset's suite)."""
+    from libero_data.tasks.horizons import step_limit
+
+    limit = run.config["preset"].get("eval_max_steps")
+    if limit is None:
+        return {}
+    suite = str(run.config.get("dataset", {}).get("suite") or "")
+    return {t["name"]: step_limit(limit, suite) for t in run.config["tasks"]}
 
 
 def _group_row(key: tuple[Any, ...], members: list[RunSummary], slug: str) -> dict[str, Any]:
@@ -174,6 +187,9 @@ def markdown_table(summary: dict[str, Any]) -> str:
         "Stored: LIBERO's stored init states (the paper's protocol); held out: placements no demonstration "
         "started from, which took no part in choosing checkpoints. Final success: the last checkpoint on each task.\n"
     )
+    limits = sorted({n for r in summary["runs"] for n in r.get("step_limits", {}).values()})
+    if limits:
+        text += f"Evaluation rollouts were cut after {' or '.join(map(str, limits))} steps (per task: report.json).\n"
     notes = [n for g in summary["groups"] for n in g["notes"]]
     if notes:
         text += "\n" + "\n".join(f"- note: {n}" for n in notes) + "\n"

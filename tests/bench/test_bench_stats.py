@@ -251,3 +251,16 @@ def test_runs_evaluated_from_other_starts_are_not_paired(tmp_path: Path) -> None
     with pytest.raises(ValueError, match="started from different states"):
         compare_runs(a, b)
     assert math.isfinite(summarize([load_run(a)])["groups"][0]["stored"]["fwt"]["mean"])
+
+
+def test_the_report_states_the_step_limit_the_rollouts_had(tmp_path: Path) -> None:
+    import json
+
+    run = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
+    config = json.loads((run / "config.json").read_text())
+    config["preset"]["eval_max_steps"] = "suite"
+    config["dataset"] = {"suite": "libero_10"}
+    (run / "config.json").write_text(json.dumps(config))
+    summary = write_report([run], tmp_path / "report")
+    assert summary["runs"][0]["step_limits"] == dict.fromkeys(TASKS, 520)
+    assert "cut after 520 steps" in (tmp_path / "report" / "report.md").read_text()
