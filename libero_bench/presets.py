@@ -16,7 +16,7 @@ from typing import Any
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.registry import Registry
-from libero_data.tasks.horizons import SUITE, StepLimit
+from libero_data.tasks.horizons import SUITE, StepLimit, is_step_limit
 
 #: Model sizes every policy has (libero_bench.policies.config_base); kept here so that
 #: presets load without torch.
@@ -75,14 +75,7 @@ class TrainPreset(Config):
         ):
             self._fail("eval_settle", "must be a non-negative integer")
         self._check_non_negative("eval_heldout")
-        if not (
-            self.eval_max_steps == SUITE
-            or (
-                isinstance(self.eval_max_steps, int)
-                and not isinstance(self.eval_max_steps, bool)
-                and self.eval_max_steps > 0
-            )
-        ):
+        if not is_step_limit(self.eval_max_steps):
             self._fail("eval_max_steps", f"must be a positive number of steps or {SUITE!r}")
         self._check_choice("eval_render_quality", ("full", "fast"))
         if not isinstance(self.eval_first_epoch, bool):

@@ -66,7 +66,7 @@ class SweepRequest:
         """Per source task name: the steps its rollouts (and its variants') may take."""
         from libero_data.tasks import get_task
 
-        return {get_task(ref).name: step_limit(self.max_steps, get_task(ref).suite) for ref in self.tasks}
+        return {task.name: step_limit(self.max_steps, task.suite) for task in map(get_task, self.tasks)}
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from libero_data.tasks.horizons import SUITE, limit_text
+
 Device = Annotated[
     str | None,
     typer.Option(
@@ -87,9 +89,7 @@ MaxSteps = Annotated[
     str,
     typer.Option(
         "--max-steps",
-        help="Steps before a rollout is cut: a number, or 'suite' for each task's suite limit "
-        "(LeRobot's LIBERO limits: libero_spatial 280, libero_object 280, libero_goal 300, "
-        "libero_10 520, libero_90 400; other tasks 500).",
+        help=f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}.",
         show_default=True,
     ),
 ]

@@ -31,6 +31,7 @@ __all__ = [
     "SUITE_LIMITS",
     "StepLimit",
     "check_step_limit",
+    "is_step_limit",
     "limit_text",
     "parse_step_limit",
     "step_limit",
@@ -65,12 +66,17 @@ SUITE = "suite"
 StepLimit = int | str
 
 
+def is_step_limit(value: object) -> bool:
+    """Whether ``value`` is a step limit: a positive int (not a bool) or ``"suite"``."""
+    if isinstance(value, str):
+        return value == SUITE
+    return isinstance(value, int) and not isinstance(value, bool) and value > 0
+
+
 def check_step_limit(value: object, *, field: str = "max_steps") -> StepLimit:
     """``value`` if it is a step limit; otherwise :class:`InputError` naming ``field``."""
-    if isinstance(value, str) and value == SUITE:
-        return value
-    if isinstance(value, int) and not isinstance(value, bool) and value > 0:
-        return value
+    if is_step_limit(value):
+        return value  # type: ignore[return-value]
     raise InputError(f"a step limit is a positive number of steps or {SUITE!r}, got {value!r}", field=field)
 
 

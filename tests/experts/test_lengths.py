@@ -13,6 +13,7 @@ fails; one as fast as measured fails with probability <= 0.1% per suite.
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 
@@ -44,6 +45,7 @@ SAMPLE = {
 STARTS = (1, 2, 3)
 
 
+@functools.cache
 def _report() -> tuple[dict[str, object], list[dict[str, object]]]:
     lines = REPORT.read_text().splitlines()
     return json.loads(lines[0])["settings"], [json.loads(line) for line in lines[1:]]
