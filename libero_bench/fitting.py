@@ -21,7 +21,8 @@ if TYPE_CHECKING:
 def make_loader(
     plan: RunPlan, task_positions: Sequence[int], *, seed: int, device: torch.device, workers: int = 0
 ) -> TaskLoader:
-    """Shuffled training windows of the given tasks' demonstrations (the preset's share of them)."""
+    """Shuffled training windows of the given tasks' demonstrations (the preset's share of them),
+    and of their mixed episodes where the run mixes data (:mod:`libero_bench.mixing`)."""
     from libero_bench.loaders import TaskLoader, WindowDataset
 
     preset = plan.preset
@@ -38,6 +39,13 @@ def make_loader(
         raise DatasetError(
             f"no training windows for {names}: every episode is shorter than {preset.window} frames"
         )
+    if plan.mix is not None and plan.mix.of(task_positions):
+        from libero_bench.mixing import mixed_windows
+
+        mixed = mixed_windows(
+            dataset, plan.mix, task_positions, plan.task_embs, preset.window, preset.image_size
+        )
+        return TaskLoader(mixed, preset.batch_size, device, seed=seed, shuffle=True, workers=workers)
     return TaskLoader(dataset, preset.batch_size, device, seed=seed, shuffle=True, workers=workers)
 
 

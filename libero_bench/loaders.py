@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -39,12 +39,26 @@ if TYPE_CHECKING:
     from torch.utils.data import DataLoader
 
 
+class EpochWindows(Protocol):
+    """Windows whose epochs the dataset draws itself (:class:`libero_bench.mixing.MixedWindows`):
+    ``epoch_len`` of them in the order ``epoch_indices(seed)``."""
+
+    window: int
+
+    def __len__(self) -> int: ...
+    def __getitem__(self, i: int) -> dict[str, Any]: ...
+    def preload(self) -> None: ...
+    def epoch_len(self) -> int: ...
+    def epoch_indices(self, seed: int) -> list[int]: ...
+
+
 class WindowDataset:
     """Windows of ``window`` consecutive frames over some episodes (a map-style torch dataset).
 
     ``episodes[i]`` belongs to the run's task ``task_ids[i]`` whose embedding is
-    ``task_embs[task_ids[i]]``. Sample ``j`` is the ``j``-th (episode, start) pair in episode
-    order; images are uint8 here (see :func:`batch_to_device`).
+    ``task_embs[task_ids[i]]`` (or ``task_embs[emb_rows[i]]``: an episode of a reworded variant
+    of the task, :mod:`libero_bench.mixing`). Sample ``j`` is the ``j``-th (episode, start) pair
+    in episode order; images are uint8 here (see :func:`batch_to_device`).
     """
 
     def __init__(
@@ -55,14 +69,17 @@ class WindowDataset:
         task_embs: np.ndarray,
         window: int,
         image_size: int | None = None,
+        *,
+        emb_rows: Sequence[int] | None = None,
     ) -> None:
-        if len(episodes) != len(task_ids):
-            raise ValueError("episodes and task_ids must have the same length")
+        if len(episodes) != len(task_ids) or (emb_rows is not None and len(emb_rows) != len(task_ids)):
+            raise ValueError("episodes, task_ids and emb_rows must have the same length")
         if window <= 0:
             raise ValueError(f"window must be positive, got {window}")
         self.source = source
         self.episodes = [int(e) for e in episodes]
         self.task_ids = [int(t) for t in task_ids]
+        self.emb_rows = [int(r) for r in emb_rows] if emb_rows is not None else self.task_ids
         self.task_embs = np.asarray(task_embs, dtype=np.float32)
         self.window = window
         self.image_size = image_size or source.image_size
@@ -111,7 +128,7 @@ class WindowDataset:
             JOINT_STATES: torch.from_numpy(f.joint_states[start:end]),
             GRIPPER_STATES: torch.from_numpy(f.gripper_states[start:end]),
             ACTIONS: torch.from_numpy(f.actions[start:end]),
-            TASK_EMB: torch.from_numpy(self.task_embs[task_id]),
+            TASK_EMB: torch.from_numpy(self.task_embs[self.emb_rows[slot]]),
             TASK_ID: torch.tensor(task_id, dtype=torch.int64),
         }
 
@@ -130,15 +147,17 @@ def worker_init(_worker_id: int) -> None:
 
 
 def make_loader(
-    dataset: WindowDataset,
+    dataset: WindowDataset | EpochWindows,
     batch_size: int,
     *,
     shuffle: bool,
     seed: int,
     workers: int = 0,
     multiprocessing_context: str | None = None,
+    order: Sequence[int] | None = None,
 ) -> DataLoader:
-    """A DataLoader over ``dataset`` whose order depends only on ``seed``.
+    """A DataLoader over ``dataset`` whose order depends only on ``seed`` (or is ``order``, the
+    sample indices of one epoch, as :class:`~libero_bench.mixing.MixedWindows` draws them).
 
     The episodes are decoded here, in the calling process, before any worker starts.
     """
@@ -150,7 +169,8 @@ def make_loader(
     return DataLoader(
         dataset,  # type: ignore[arg-type]
         batch_size=batch_size,
-        shuffle=shuffle,
+        shuffle=shuffle if order is None else False,
+        sampler=list(order) if order is not None else None,
         generator=generator,
         num_workers=workers,
         worker_init_fn=worker_init if workers else None,
@@ -179,7 +199,7 @@ class TaskLoader:
 
     def __init__(
         self,
-        dataset: WindowDataset,
+        dataset: WindowDataset | EpochWindows,
         batch_size: int,
         device: torch.device | str,
         *,
@@ -199,18 +219,22 @@ class TaskLoader:
         dataset.preload()
 
     def __len__(self) -> int:
-        return math.ceil(len(self.dataset) / self.batch_size)
+        epoch_len = getattr(self.dataset, "epoch_len", None)  # mixed data: the run's own windows
+        return math.ceil((epoch_len() if epoch_len else len(self.dataset)) / self.batch_size)
 
     def set_epoch(self, epoch: int) -> None:
         self.epoch = epoch
 
     def __iter__(self) -> Iterator[dict[str, torch.Tensor]]:
+        seed = loader_epoch_seed(self.seed, self.epoch)
+        epoch_indices = getattr(self.dataset, "epoch_indices", None)
         loader = make_loader(
             self.dataset,
             self.batch_size,
             shuffle=self.shuffle,
-            seed=loader_epoch_seed(self.seed, self.epoch),
+            seed=seed,
             workers=self.workers,
+            order=epoch_indices(seed) if epoch_indices else None,
         )
         for batch in loader:
             yield batch_to_device(batch, self.device)

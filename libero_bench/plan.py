@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from libero_bench.data import DemoDataset, DemoTask
+from libero_bench.mixing import DEFAULT_WEIGHT, MixPlan, check_weight, plan_mix
 from libero_bench.presets import TrainPreset
 from libero_bench.run_files import RUN_FORMAT, RunFolder
 from libero_data.errors import FolderError, InputError, MissingFileError, UnknownNameError
@@ -41,6 +42,8 @@ class RunRequest:
     order: int | None = None  # an upstream task order (10-task selections)
     seed: int | None = None  # None: the preset's seed
     init_checkpoint: Path | None = None
+    mix: tuple[Path, ...] = ()  # datasets with more episodes of the tasks or their variants (mixing)
+    mix_weight: float = DEFAULT_WEIGHT  # the share of each epoch drawn from them
 
 
 @dataclass(frozen=True)
@@ -105,6 +108,15 @@ class RunPlan:
     policy_config: dict[str, Any]
     algo_config: dict[str, Any]
     needs_all_tasks: bool
+    mix: MixPlan | None = None
+
+    def training_seeds(self, position: int) -> frozenset[int]:
+        """The sampler seeds every training episode of the task at ``position`` began from (the
+        mixed ones included): its held-out evaluation starts skip them."""
+        seeds = set(_sampler_seeds(self.source, self.tasks[position]))
+        if self.mix is not None:
+            seeds |= self.mix.starts(position)[1]
+        return frozenset(seeds)
 
     def config(self, options: RunOptions) -> dict[str, Any]:
         """The run's ``config.json`` (everything but ``runtime`` must match to resume)."""
@@ -145,8 +157,9 @@ class RunPlan:
                 "heldout_seeds": "libero_data.seeding.heldout_starts(task name, n, avoid=its demonstrations' seeds)",
                 # rad per arm joint on held-out starts, as LIBERO's stored init states (libero_data.sim.arm)
                 "heldout_arm_noise": ARM_INIT_NOISE,
-                "training_starts": start_overlap(self.source, self.tasks, self.preset),
+                "training_starts": start_overlap(self.source, self.tasks, self.preset, self.mix),
             },
+            **({"mix": self.mix.config(self.tasks)} if self.mix is not None else {}),
             "runtime": {
                 "device": options.device,
                 "workers": options.workers,
@@ -172,6 +185,7 @@ def plan_run(request: RunRequest) -> RunPlan:
         raise UnknownNameError(f"unknown policy {request.policy!r}; known: {', '.join(POLICIES.names())}")
     if request.init_checkpoint is not None and not request.init_checkpoint.is_file():
         raise MissingFileError(f"the initial checkpoint {request.init_checkpoint} does not exist")
+    check_weight(request.mix_weight)
     source = DemoDataset(request.data)
     tasks = select_tasks(source, request.tasks, request.order)
     seed = request.preset.seed if request.seed is None else request.seed
@@ -188,6 +202,11 @@ def plan_run(request: RunRequest) -> RunPlan:
     algo = _algo_for(request.algo, preset.algo_size, seed)
     if request.init_checkpoint is not None:
         _check_initial_weights(request.init_checkpoint, pconfig, request.policy)
+    mix = (
+        plan_mix(request.mix, request.mix_weight, tasks, source, preset.language_encoder)
+        if request.mix
+        else None
+    )
     return RunPlan(
         request=request,
         source=source,
@@ -198,6 +217,7 @@ def plan_run(request: RunRequest) -> RunPlan:
         policy_config=pconfig.to_dict(),
         algo_config=algo.config.to_dict(),
         needs_all_tasks=type(algo).needs_all_tasks,
+        mix=mix,
     )
 
 
@@ -238,11 +258,17 @@ def check_out_folder(out: Path) -> None:
 
 
 def resolve_eval_task(
-    source: DemoDataset, task: DemoTask, position: int, task_emb: np.ndarray, heldout: int = 0
+    source: DemoDataset,
+    task: DemoTask,
+    position: int,
+    task_emb: np.ndarray,
+    heldout: int = 0,
+    avoid: frozenset[int] | None = None,
 ) -> EvalTask:
     """How to simulate a dataset task: LIBERO's BDDL and stored init states when the task is
     in the registry, else the BDDL stored with the dataset (objects placed from seeds); and
-    ``heldout`` held-out starts none of its demonstrations began from."""
+    ``heldout`` held-out starts none of its demonstrations began from (the seeds in ``avoid``;
+    default: those of its episodes in ``source``)."""
     from libero_bench.rollouts.jobs import EvalTask
     from libero_data.errors import LiberoDataError
     from libero_data.seeding import heldout_starts
@@ -275,7 +301,9 @@ def resolve_eval_task(
         env_ref=str(bddl),
         task_emb=np.asarray(task_emb, dtype=np.float32),
         init_states=inits,
-        heldout=tuple(heldout_starts(task.name, heldout, avoid=_sampler_seeds(source, task))),
+        heldout=tuple(
+            heldout_starts(task.name, heldout, avoid=_sampler_seeds(source, task) if avoid is None else avoid)
+        ),
         suite=task.suite,
     )
 
@@ -296,17 +324,23 @@ def _sampler_seeds(source: DemoDataset, task: DemoTask) -> frozenset[int]:
     return frozenset(starts[1]) if starts is not None else frozenset()
 
 
-def start_overlap(source: DemoDataset, tasks: Sequence[DemoTask], preset: TrainPreset) -> dict[str, Any]:
-    """How the run's training data began, against its evaluation starts: per task, the stored
-    init states both use (the paper's evaluation then measures starts the policy was trained
-    from), or that the dataset does not record where its episodes started."""
+def start_overlap(
+    source: DemoDataset, tasks: Sequence[DemoTask], preset: TrainPreset, mix: MixPlan | None = None
+) -> dict[str, Any]:
+    """How the run's training data began (mixed episodes included), against its evaluation
+    starts: per task, the stored init states both use (the paper's evaluation then measures
+    starts the policy was trained from), or that the dataset does not record where its episodes
+    started."""
     out: dict[str, Any] = {}
-    for task in tasks:
+    for position, task in enumerate(tasks):
         starts = source.training_starts(task)
         if starts is None:
             out[task.name] = {"recorded": False}
             continue
         stored, seeds = starts
+        if mix is not None and mix.episodes.get(position):
+            mixed_stored, mixed_seeds = mix.starts(position)
+            stored, seeds = stored | mixed_stored, seeds | mixed_seeds
         available = _stored_inits(task)
         evaluated = {r % available for r in range(preset.eval_rollouts)} if available else set()
         out[task.name] = {

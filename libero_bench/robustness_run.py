@@ -33,12 +33,14 @@ def run_outcomes(
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
     keep_work: bool = False,
-) -> tuple[dict[str, list[bool]], str]:
-    """Outcomes (in rollout order) per cell name, and the policy's name for the report. Once the
-    rollouts are joined in ``out/rollouts`` their shards are removed unless ``keep_work``."""
+) -> tuple[dict[str, list[bool]], str, dict[str, tuple[int, ...]]]:
+    """Outcomes (in rollout order) per cell name, the policy's name for the report and the
+    held-out seeds per source task. Once the rollouts are joined in ``out/rollouts`` their shards
+    are removed unless ``keep_work``."""
     from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
     from libero_bench.data import DemoDataset
     from libero_bench.language import encode_tasks
+    from libero_bench.mixing import mixed_seeds
     from libero_bench.rollouts.actors import PolicyActor
     from libero_bench.run_files import RunFolder
     from libero_bench.runs import load_run
@@ -49,10 +51,11 @@ def run_outcomes(
     preset = config["preset"]
     names = [t["name"] for t in config["tasks"][: summary.tasks_done]]
     source = DemoDataset(config["data"])
+    mixed = mixed_seeds(config)
     avoid = {}
     for name in names:
         starts = source.training_starts(source.task(name))
-        avoid[name] = set(starts[1]) if starts is not None else set()
+        avoid[name] = (set(starts[1]) if starts is not None else set()) | mixed.get(name, set())
     seeds = heldout_seeds(request, avoid)
     for name in seeds:
         if name not in names:
@@ -115,7 +118,7 @@ def run_outcomes(
     outcomes: dict[str, list[bool]] = {}
     for record in sorted(records.values(), key=lambda r: (r["task"], r["rollout"])):
         outcomes.setdefault(record["task"], []).append(bool(record["success"]))
-    return outcomes, f"{config['algo']} + {config['policy']} ({Path(run).name})"
+    return outcomes, f"{config['algo']} + {config['policy']} ({Path(run).name})", seeds
 
 
 def _jobs(

@@ -46,11 +46,11 @@ def sweep(
     if not is_server(ref) and RunFolder(Path(ref)).is_run():
         from libero_bench.robustness_run import run_outcomes
 
-        outcomes, name = run_outcomes(
+        outcomes, name, seeds = run_outcomes(
             Path(ref), request, cells, out, execution, on_result, on_total, keep_work
         )
     else:
-        outcomes, name = _lerobot_outcomes(
+        outcomes, name, seeds = _lerobot_outcomes(
             ref, request, cells, out, execution, on_result, on_total, keep_work
         )
     summary = {
@@ -60,6 +60,9 @@ def sweep(
         "step_limits": request.step_limits(),
         "versions": versions(),
         "table": table(cells, outcomes, request.kinds, request.levels),
+        # what a paired comparison of two sweeps needs (libero_bench.robustness_compare)
+        "heldout_seeds": {name: list(s) for name, s in seeds.items()},
+        "outcomes": {name: [bool(ok) for ok in oks] for name, oks in sorted(outcomes.items())},
     }
     write_report(out, summary, request.levels)
     return summary
@@ -74,9 +77,9 @@ def _lerobot_outcomes(
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
     keep_work: bool,
-) -> tuple[dict[str, list[bool]], str]:
+) -> tuple[dict[str, list[bool]], str, dict[str, tuple[int, ...]]]:
     """Outcomes per cell of a LeRobot policy or a served one (``libero-bench eval`` on the
-    variants suite)."""
+    variants suite), its name and the held-out seeds per source task."""
     from libero_bench.policy_eval import EvalRequest, evaluate_policy, training_starts
     from libero_bench.rollouts.sources import is_server
 
@@ -108,4 +111,4 @@ def _lerobot_outcomes(
     outcomes: dict[str, list[bool]] = {}
     for r in sorted(records, key=lambda r: (r["task"], r["rollout"])):
         outcomes.setdefault(r["task"], []).append(bool(r["success"]))
-    return outcomes, f"{summary['policy_type']} policy"
+    return outcomes, f"{summary['policy_type']} policy", seeds

@@ -45,7 +45,14 @@ class EvaluationRounds:
         if self._eval_tasks is None:
             plan = self.plan
             self._eval_tasks = [
-                resolve_eval_task(plan.source, t, i, plan.task_embs[i], heldout=plan.preset.eval_heldout)
+                resolve_eval_task(
+                    plan.source,
+                    t,
+                    i,
+                    plan.task_embs[i],
+                    heldout=plan.preset.eval_heldout,
+                    avoid=plan.training_seeds(i),
+                )
                 for i, t in enumerate(plan.tasks)
             ]
         return self._eval_tasks

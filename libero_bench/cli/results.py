@@ -42,11 +42,17 @@ def report_cmd(
 
 @user_errors
 def compare_cmd(
-    run_a: Annotated[Path, typer.Argument(help="A run folder (A).")],
-    run_b: Annotated[Path, typer.Argument(help="Another run folder (B), evaluated on the same tasks.")],
+    run_a: Annotated[Path, typer.Argument(help="A run folder, or a robustness sweep's folder (A).")],
+    run_b: Annotated[
+        Path, typer.Argument(help="Another run folder (B) on the same tasks, or another sweep of them.")
+    ],
     out: Annotated[
         Path | None,
-        typer.Option("--out", "-o", help="Folder for compare.json and compare.md (default: print only)."),
+        typer.Option(
+            "--out",
+            "-o",
+            help="Folder for compare.json and compare.md (and compare.png for sweeps; default: print only).",
+        ),
     ] = None,
 ) -> None:
     """Is one run better than another? McNemar's exact test on their final checkpoints' paired outcomes.
@@ -55,7 +61,16 @@ def compare_cmd(
     outcome with run B's, per task and over all tasks, for each kind of start. For runs over the
     same tasks, FWT, NBT and AUC are compared too: the difference A − B with its 95% bootstrap
     interval (paired over starts when both runs were evaluated alike).
+
+    Two robustness sweeps (`libero-bench robustness` folders) are compared per kind and level
+    from their shared held-out placements: B − A with a paired bootstrap interval, McNemar's test,
+    and side-by-side heatmaps.
     """
+    from libero_bench.robustness import REPORT
+
+    if (run_a / f"{REPORT}.json").is_file() or (run_b / f"{REPORT}.json").is_file():
+        _compare_sweeps(run_a, run_b, out)
+        return
     from libero_bench.compare import compare_runs, markdown, metric_line, verdict
     from libero_data.runtime.files import write_json, write_text
 
@@ -77,6 +92,17 @@ def compare_cmd(
         say(f"wrote {out / 'compare.json'} and {out / 'compare.md'}")
     else:
         say(text)
+
+
+def _compare_sweeps(sweep_a: Path, sweep_b: Path, out: Path | None) -> None:
+    from libero_bench.robustness_compare import compare_sweeps, markdown, write_comparison
+
+    result = compare_sweeps(sweep_a, sweep_b)
+    if out is None:
+        say(markdown(result))
+        return
+    paths = write_comparison(result, out)
+    say("wrote " + ", ".join(str(p) for p in paths))
 
 
 @user_errors

@@ -83,6 +83,23 @@ def run_cmd(
         typer.Option("--set", help="Override a preset field, e.g. --set eval_rollouts=5 (repeatable)."),
     ] = None,
     render_quality: EvalRenderQuality = None,
+    mix: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--mix",
+            help="Another dataset whose episodes of the run's tasks and of their variants "
+            "(<task>__<kind>..., as `libero-data generate --variants-of` makes) are trained on too; "
+            "repeatable. Held-out evaluation starts skip where they began.",
+        ),
+    ] = None,
+    mix_weight: Annotated[
+        float,
+        typer.Option(
+            "--mix-weight",
+            help="Share of each epoch's windows drawn from the --mix episodes; an epoch keeps the "
+            "length of the run's own data, so the gradient steps do not change.",
+        ),
+    ] = 0.5,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
     quiet_environment(threads)
@@ -110,6 +127,8 @@ def run_cmd(
         order=order,
         seed=seed,
         init_checkpoint=init_checkpoint,
+        mix=tuple(mix or ()),
+        mix_weight=mix_weight,
     )
     with console().status("reading the dataset and embedding the tasks"):
         plan = plan_run(request)
