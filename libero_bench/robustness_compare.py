@@ -103,10 +103,24 @@ def _entry(pairs: Sequence[tuple[bool, bool]], rng: np.random.Generator) -> dict
     }
 
 
-def compare_sweeps(path_a: str | Path, path_b: str | Path) -> dict[str, Any]:
-    """The comparison of two sweeps (see the module docstring), as JSON-ready data."""
-    a, b = load_sweep(path_a), load_sweep(path_b)
-    pairs = _pairs(a, b)
+def compare_sweeps(
+    path_a: str | Path | Sequence[str | Path], path_b: str | Path | Sequence[str | Path]
+) -> dict[str, Any]:
+    """The comparison of two sweeps (see the module docstring), as JSON-ready data. Lists of
+    sweeps pair up in order (sweep ``i`` of A with sweep ``i`` of B, say one per task) and their
+    pairs are pooled per kind and level."""
+    paths_a = [path_a] if isinstance(path_a, (str, Path)) else list(path_a)
+    paths_b = [path_b] if isinstance(path_b, (str, Path)) else list(path_b)
+    if len(paths_a) != len(paths_b) or not paths_a:
+        raise RunError(f"compare as many sweeps of B as of A, got {len(paths_a)} and {len(paths_b)}")
+    pairs: dict[tuple[str, int], list[tuple[bool, bool]]] = {}
+    named: dict[str, list[str]] = {"a": [], "b": []}
+    for one_a, one_b in zip(paths_a, paths_b, strict=True):
+        a, b = load_sweep(one_a), load_sweep(one_b)
+        named["a"].append(a["policy_name"])
+        named["b"].append(b["policy_name"])
+        for key, chosen in _pairs(a, b).items():
+            pairs.setdefault(key, []).extend(chosen)
     rng = np.random.default_rng(SEED)
     grid: dict[str, dict[str, Any]] = {}
     for (kind, level), chosen in sorted(pairs.items()):
@@ -117,8 +131,8 @@ def compare_sweeps(path_a: str | Path, path_b: str | Path) -> dict[str, Any]:
         if perturbed:
             per_kind[kind] = _entry(perturbed, rng)
     return {
-        "a": {"sweep": str(path_a), "policy": a["policy"], "policy_name": a["policy_name"]},
-        "b": {"sweep": str(path_b), "policy": b["policy"], "policy_name": b["policy_name"]},
+        "a": {"sweeps": [str(p) for p in paths_a], "policy_name": ", ".join(named["a"])},
+        "b": {"sweeps": [str(p) for p in paths_b], "policy_name": ", ".join(named["b"])},
         "levels": sorted({level for _, level in pairs}),
         "alpha": ALPHA,
         "grid": grid,

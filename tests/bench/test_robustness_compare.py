@@ -87,3 +87,15 @@ def test_bootstrap_is_seeded(tmp_path: Path) -> None:
     first, second = compare_sweeps(a, b), compare_sweeps(a, b)
     assert first["grid"]["camera"]["1"] == second["grid"]["camera"]["1"]
     assert np.isfinite(first["grid"]["camera"]["1"]["diff_low"])
+
+
+def test_sweeps_of_several_tasks_pool(tmp_path: Path) -> None:
+    cam1 = f"{TASK}__camera_l1"
+    a1, b1 = _sweep(tmp_path / "a1", {cam1: 2}), _sweep(tmp_path / "b1", {cam1: 7})
+    a2, b2 = _sweep(tmp_path / "a2", {cam1: 4}), _sweep(tmp_path / "b2", {cam1: 4})
+    pooled = compare_sweeps([a1, a2], [b1, b2])
+    cell = pooled["grid"]["camera"]["1"]
+    assert (cell["n"], cell["a"]["successes"], cell["b"]["successes"]) == (2 * N, 6, 11)
+    assert pooled["a"]["policy_name"] == "a1, a2"
+    with pytest.raises(RunError, match="as many sweeps"):
+        compare_sweeps([a1, a2], [b1])
