@@ -28,8 +28,8 @@ CONDITIONS = {
 
 
 def table(found: list[dict[Any, Any]]) -> str:
-    from libero_bench.compare import pair
-    from libero_bench.run_files import HELDOUT, STORED
+    from libero_bench.analysis.compare import pair
+    from libero_bench.runs.folder import HELDOUT, STORED
 
     a, b = CONDITIONS
     lines = [

@@ -109,10 +109,10 @@ def _load(folder: Path) -> tuple[Any, Any, Any, Any]:
     import torch
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
-    from libero_bench.lerobot_policy import policy_config, serve
+    from libero_bench.evaluation.lerobot_policy import lerobot_config, serve
 
     torch.set_num_threads(1)
-    config = policy_config(folder)
+    config = lerobot_config(folder)
     policy = get_policy_class(config.type).from_pretrained(str(folder), config=config).eval()
     pre, post = make_pre_post_processors(policy_cfg=config, pretrained_path=str(folder))
     return policy, pre, post, serve(config.input_features)

@@ -1,6 +1,6 @@
 """Evaluation throughput: rollouts per minute with 1 and 2 worker processes, worker memory.
 
-``libero_bench.evaluate.Evaluator`` runs ``--rollouts`` rollouts of a smoke-size ResNet-T
+``libero_bench.evaluation.evaluator.Evaluator`` runs ``--rollouts`` rollouts of a smoke-size ResNet-T
 policy (untrained: its rollouts run to ``--max-steps``, the worst case) on one task, both
 cameras at ``--size``, each rollout written as a LeRobot shard, MCAP log and Rerun
 recording like in a real run. Measured with 1 and with 2 worker processes (the pool is
@@ -80,7 +80,7 @@ def rate(
 ) -> tuple[float, list[float]]:
     """(rollouts per minute, peak MiB of each worker); ``render_threads`` sets llvmpipe's
     thread count in the new workers (None: Mesa's default, one per core)."""
-    from libero_bench.evaluate import Evaluator
+    from libero_bench.evaluation.evaluator import Evaluator
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
     policy = _policy(size)
@@ -109,7 +109,7 @@ def rate(
 
 def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> list[float]:
     """Resident MiB of one worker after each of ``rollouts`` rollouts."""
-    from libero_bench.evaluate import Evaluator
+    from libero_bench.evaluation.evaluator import Evaluator
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-mem-"))
     policy = _policy(size)

@@ -4,7 +4,7 @@ Both deliver the same samples — windows of ``--window`` consecutive frames wit
 joint and gripper states and actions — in a ``torch.utils.data.DataLoader`` (batch
 ``--batch``, ``--workers`` processes) over one dataset:
 
-- **ours**: ``libero_bench.loaders.WindowDataset`` (each episode's videos decoded once, then
+- **ours**: ``libero_bench.data.windows.WindowDataset`` (each episode's videos decoded once, then
   slices of the cache): the warm rate, and the rate of a first epoch (decoding every
   episode once, then every window once);
 - **LeRobot**: ``LeRobotDataset`` with ``delta_timestamps`` (decodes the frames of every
@@ -40,8 +40,8 @@ def ours(root: Path, window: int, batch: int, batches: int, workers: int) -> tup
     import numpy as np
     import torch
 
-    from libero_bench.data import DemoDataset
-    from libero_bench.loaders import WindowDataset
+    from libero_bench.data.dataset import DemoDataset
+    from libero_bench.data.windows import WindowDataset
 
     source = DemoDataset(root)
     episodes = [e for t in source.tasks for e in t.episodes]

@@ -32,8 +32,8 @@ def rollouts(run: Path, workers: int) -> dict[Any, Any]:
 
 
 def table(found: list[dict[Any, Any]], workers: int) -> str:
-    from libero_bench.compare import pair
-    from libero_bench.run_files import HELDOUT, STORED
+    from libero_bench.analysis.compare import pair
+    from libero_bench.runs.folder import HELDOUT, STORED
 
     lines = [
         "Each run's kept checkpoint rolled out again from the run's own evaluation starts with `full` and with "

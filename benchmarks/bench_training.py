@@ -30,10 +30,10 @@ def one_run(
     import numpy as np
     import torch
 
-    from libero_bench.data import DemoDataset
-    from libero_bench.loaders import TaskLoader, WindowDataset
+    from libero_bench.data.dataset import DemoDataset
+    from libero_bench.data.windows import TaskLoader, WindowDataset
     from libero_bench.policies import make_policy, policy_config
-    from libero_bench.presets import get_preset
+    from libero_bench.train.presets import get_preset
 
     preset = get_preset(size)
     source = DemoDataset(root)

@@ -25,15 +25,15 @@ def reroll(
     skip that dataset's demonstration seeds). Also returns ``recorded`` (the run's own final
     outcomes) and ``seconds`` per condition.
     """
-    from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
-    from libero_bench.compare import final_outcomes
-    from libero_bench.data import DemoDataset
-    from libero_bench.evaluate import Evaluator
-    from libero_bench.language import encode_tasks
-    from libero_bench.plan import resolve_eval_task
+    from libero_bench.analysis.compare import final_outcomes
+    from libero_bench.data.dataset import DemoDataset
+    from libero_bench.data.language import encode_tasks
+    from libero_bench.evaluation.evaluator import Evaluator
     from libero_bench.rollouts.jobs import make_job
-    from libero_bench.run_files import HELDOUT, STORED, RunFolder
-    from libero_bench.runs import load_run
+    from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
+    from libero_bench.runs.summary import load_run
+    from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
+    from libero_bench.train.plan import resolve_eval_task
 
     summary = load_run(run)
     config = summary.config

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from libero_bench.robustness_compare import compare_sweeps, mean_difference, write_comparison
+from libero_bench.robustness.paired import compare_sweeps, mean_difference, write_comparison
 
 TRAINED = ("camera", "lighting", "texture", "noise", "robot_init")
 NOT_TRAINED = ("layout", "distractors", "swap", "language")

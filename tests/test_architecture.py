@@ -100,6 +100,35 @@ def test_no_import_cycles_and_no_private_names_across_modules() -> None:
     assert private == []
 
 
+def _public_definitions(path: Path) -> list[str]:
+    tree = ast.parse(path.read_text())
+    return [
+        node.name
+        for node in tree.body
+        if isinstance(node, ast.FunctionDef | ast.ClassDef) and not node.name.startswith("_")
+    ]
+
+
+def test_no_name_is_used_for_two_things() -> None:
+    """Within a package, a public function or class is defined in one module only, and no two
+    modules share a file name, except where a layout is repeated on purpose: one module per
+    command in ``cli/``, ``config.py``/``model.py`` per policy, ``base.py`` per registry."""
+    repeated_on_purpose = {"config", "model", "base"}
+    defined: dict[str, list[str]] = defaultdict(list)
+    files: dict[str, list[str]] = defaultdict(list)
+    for module, path in MODULES.items():
+        package = module.split(".")[0]
+        for name in _public_definitions(path):
+            defined[f"{package}: {name}"].append(module)
+        stem = path.stem
+        if stem != "__init__" and ".cli." not in f".{module}." and stem not in repeated_on_purpose:
+            files[f"{package}: {stem}.py"].append(module)
+    twice = {name: where for name, where in defined.items() if len(where) > 1}
+    assert twice == {}
+    same_file = {name: where for name, where in files.items() if len(where) > 1}
+    assert same_file == {}
+
+
 def test_data_never_imports_the_benchmark() -> None:
     graph, _ = _imports()
     back = sorted(
@@ -147,7 +176,7 @@ def test_modules_and_functions_stay_readable() -> None:
 
 def test_nothing_we_open_is_unpickled() -> None:
     """Checkpoints, run folders, datasets and messages are opened without unpickling; only
-    libero_bench.migrate reads an earlier version's pickles, with torch's restricted loader."""
+    libero_bench.runs.migrate reads an earlier version's pickles, with torch's restricted loader."""
     forbidden = re.compile(
         r"weights_only\s*=\s*False|pickle\.loads?\(|allow_pickle\s*=\s*True|cloudpickle|\bdill\b|"
         r"joblib|read_pickle|np\.load\([^)]*allow_pickle\s*=\s*True|torch\.load\("

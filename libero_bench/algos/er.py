@@ -23,7 +23,7 @@ import torch
 from torch import Tensor
 
 from libero_bench.algos.base import ALGOS, Algo, AlgoConfig, Batch, DataloaderFactory
-from libero_bench.batch_keys import IMAGE_KEYS
+from libero_bench.data.batch_keys import IMAGE_KEYS
 
 logger = logging.getLogger(__name__)
 

@@ -31,7 +31,7 @@ def migrate_cmd(
     folder's .pt files are replaced by their .safetensors once those read back; the run then
     resumes, evaluates and serves as before.
     """
-    from libero_bench.migrate import WARNING, migrate
+    from libero_bench.runs.migrate import WARNING, migrate
 
     for done in migrate(path, out):
         say(f"converted {done.source} -> {done.target} ({done.kind})")

@@ -85,7 +85,7 @@ def eval_cmd(
     --replan-steps at a time.
     """
     quiet_environment()
-    from libero_bench.policy_eval import EvalRequest, evaluate_policy, markdown
+    from libero_bench.evaluation.policy_eval import EvalRequest, eval_markdown, evaluate_policy
     from libero_bench.rollouts.loop import Execution
     from libero_bench.rollouts.sources import policy_source
     from libero_data.errors import InputError
@@ -117,7 +117,7 @@ def eval_cmd(
             source=source,
             keep_work=keep_work,
         )
-    say(markdown(summary))
+    say(eval_markdown(summary))
     say(
         f"wrote {out / 'report.md'}, {out / 'report.json'}, {out / 'success.png'}, the rollouts in {out / 'rollouts'}"
     )

@@ -14,7 +14,7 @@ def print_table(rows: list[list[str]]) -> None:
     """The scores table (one row per method) on the terminal."""
     from rich.table import Table
 
-    from libero_bench.report import TABLE_HEADER
+    from libero_bench.analysis.report import TABLE_HEADER
 
     table = Table(title_justify="left")
     for column in TABLE_HEADER:
@@ -32,7 +32,7 @@ def report_cmd(
     ] = None,
 ) -> None:
     """FWT / NBT / AUC with 95% intervals, from stored and held-out starts; success matrix, curves and metrics (PNG); JSON."""
-    from libero_bench.report import table_rows, write_report
+    from libero_bench.analysis.report import table_rows, write_report
 
     summary = write_report(runs, out or (runs[0] / "report"))
     print_table(table_rows(summary))
@@ -66,16 +66,16 @@ def compare_cmd(
     from their shared held-out placements: B − A with a paired bootstrap interval, McNemar's test,
     and side-by-side heatmaps.
     """
-    from libero_bench.robustness import REPORT
+    from libero_bench.robustness.cells import REPORT
 
     if (run_a / f"{REPORT}.json").is_file() or (run_b / f"{REPORT}.json").is_file():
         _compare_sweeps(run_a, run_b, out)
         return
-    from libero_bench.compare import compare_runs, markdown, metric_line, verdict
+    from libero_bench.analysis.compare import compare_runs, comparison_markdown, metric_line, verdict
     from libero_data.runtime.files import write_json, write_text
 
     result = compare_runs(run_a, run_b)
-    text = markdown(result)
+    text = comparison_markdown(result)
     for start in ("stored", "heldout"):
         block = result.get(start)
         if block is not None:
@@ -95,11 +95,11 @@ def compare_cmd(
 
 
 def _compare_sweeps(sweep_a: Path, sweep_b: Path, out: Path | None) -> None:
-    from libero_bench.robustness_compare import compare_sweeps, markdown, write_comparison
+    from libero_bench.robustness.paired import compare_sweeps, paired_markdown, write_comparison
 
     result = compare_sweeps(sweep_a, sweep_b)
     if out is None:
-        say(markdown(result))
+        say(paired_markdown(result))
         return
     paths = write_comparison(result, out)
     say("wrote " + ", ".join(str(p) for p in paths))
@@ -120,7 +120,7 @@ def replay_cmd(
     """Show a stored evaluation rollout: list a task's rollouts, or save one's Rerun recording."""
     import shutil
 
-    from libero_bench.run_files import RunFolder, task_rollouts
+    from libero_bench.runs.folder import RunFolder, task_rollouts
 
     folder = RunFolder(run)
     chosen, mine = task_rollouts(folder, task)

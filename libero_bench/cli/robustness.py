@@ -86,8 +86,8 @@ def robustness_cmd(
     evaluates a served policy (see libero-bench eval --help).
     """
     quiet_environment()
-    from libero_bench.robustness import REPORT, SweepRequest
-    from libero_bench.robustness_sweep import sweep
+    from libero_bench.robustness.cells import REPORT, SweepRequest
+    from libero_bench.robustness.sweep import sweep
     from libero_bench.rollouts.loop import Execution
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS

@@ -33,6 +33,34 @@ EvalRenderQuality = Annotated[
     ),
 ]
 
+InitCheckpoint = Annotated[
+    Path | None,
+    typer.Option(
+        "--init-checkpoint", help="Start from these weights (a run's task_NNN.safetensors, or bare)."
+    ),
+]
+Overrides = Annotated[
+    list[str] | None,
+    typer.Option("--set", help="Override a preset field, e.g. --set eval_rollouts=5 (repeatable)."),
+]
+Mix = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--mix",
+        help="Another dataset whose episodes of the run's tasks and of their variants "
+        "(<task>__<kind>..., as `libero-data generate --variants-of` makes) are trained on too; "
+        "repeatable. Held-out evaluation starts skip where they began.",
+    ),
+]
+MixWeight = Annotated[
+    float,
+    typer.Option(
+        "--mix-weight",
+        help="Share of each epoch's windows drawn from the --mix episodes; an epoch keeps the "
+        "length of the run's own data, so the gradient steps do not change.",
+    ),
+]
+
 
 @user_errors
 def run_cmd(
@@ -72,42 +100,19 @@ def run_cmd(
     threads: Annotated[
         int, typer.Option("--threads", help="Torch threads of the training process.", min=1)
     ] = 1,
-    init_checkpoint: Annotated[
-        Path | None,
-        typer.Option(
-            "--init-checkpoint", help="Start from these weights (a run's task_NNN.safetensors, or bare)."
-        ),
-    ] = None,
-    overrides: Annotated[
-        list[str] | None,
-        typer.Option("--set", help="Override a preset field, e.g. --set eval_rollouts=5 (repeatable)."),
-    ] = None,
+    init_checkpoint: InitCheckpoint = None,
+    overrides: Overrides = None,
     render_quality: EvalRenderQuality = None,
-    mix: Annotated[
-        list[Path] | None,
-        typer.Option(
-            "--mix",
-            help="Another dataset whose episodes of the run's tasks and of their variants "
-            "(<task>__<kind>..., as `libero-data generate --variants-of` makes) are trained on too; "
-            "repeatable. Held-out evaluation starts skip where they began.",
-        ),
-    ] = None,
-    mix_weight: Annotated[
-        float,
-        typer.Option(
-            "--mix-weight",
-            help="Share of each epoch's windows drawn from the --mix episodes; an epoch keeps the "
-            "length of the run's own data, so the gradient steps do not change.",
-        ),
-    ] = 0.5,
+    mix: Mix = None,
+    mix_weight: MixWeight = 0.5,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
     quiet_environment(threads)
     import torch
 
-    from libero_bench.plan import RunOptions, RunRequest, check_device, check_out_folder, plan_run
-    from libero_bench.presets import get_preset
-    from libero_bench.train import Trainer
+    from libero_bench.train.plan import RunOptions, RunRequest, check_device, check_out_folder, plan_run
+    from libero_bench.train.presets import get_preset
+    from libero_bench.train.trainer import Trainer
     from libero_data.runtime.jobs import Executor
     from libero_data.runtime.memory import limit_malloc_arenas
 
@@ -148,9 +153,9 @@ def run_cmd(
         done = trainer.run()
     minutes = (time.perf_counter() - started) / 60
     say(f"done: {len(plan.tasks)} tasks, {len(done.rollouts)} rollouts in {out} ({minutes:.1f} min)")
+    from libero_bench.analysis.report import summarize, table_rows
     from libero_bench.cli.results import print_table
-    from libero_bench.report import summarize, table_rows
-    from libero_bench.runs import load_run
+    from libero_bench.runs.summary import load_run
 
     print_table(table_rows(summarize([load_run(out)])))
     say(f"report with plots: libero-bench report {out}")
@@ -197,7 +202,7 @@ class _Bars:
     def __enter__(self) -> Any:
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-        from libero_bench.train import RunObserver
+        from libero_bench.train.trainer import RunObserver
 
         progress = Progress(
             TextColumn("{task.description}"),

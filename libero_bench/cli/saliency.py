@@ -36,7 +36,7 @@ def saliency_cmd(
 ) -> None:
     """Perturbation saliency of the agentview encoder: PNG overlays and a Rerun recording."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from libero_bench.saliency_run import saliency_for_run
+    from libero_bench.analysis.saliency_run import saliency_for_run
 
     written = saliency_for_run(
         run, task=task, frames=_frame_list(frames), source=source, rollout=rollout, after=after, out=out

@@ -27,7 +27,7 @@ import torch
 from torch import Tensor, nn
 from torch.distributions import MixtureSameFamily
 
-from libero_bench.batch_keys import (
+from libero_bench.data.batch_keys import (
     ACTIONS,
     AGENTVIEW,
     GRIPPER_DIM,

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-from libero_bench.presets import POLICY_SIZES
+from libero_bench.train.presets import POLICY_SIZES
 from libero_data.config import Config
 from libero_data.errors import InputError
 

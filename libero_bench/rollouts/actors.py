@@ -134,7 +134,7 @@ def observation_rows(
     """A policy batch (B rows, T = 1) from environment observations and task embeddings."""
     import torch
 
-    from libero_bench.batch_keys import AGENTVIEW, GRIPPER_STATES, JOINT_STATES, TASK_EMB, WRIST
+    from libero_bench.data.batch_keys import AGENTVIEW, GRIPPER_STATES, JOINT_STATES, TASK_EMB, WRIST
 
     def stack(key: str) -> np.ndarray:
         return np.stack([np.asarray(obs[key]) for obs in observations])

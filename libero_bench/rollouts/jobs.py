@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.run_files import HELDOUT, STORED
+from libero_bench.runs.folder import HELDOUT, STORED
 from libero_data.seeding import rollout_start
 from libero_data.sim.arm import ARM_INIT_NOISE
 from libero_data.tasks.horizons import StepLimit, step_limit

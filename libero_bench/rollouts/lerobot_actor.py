@@ -19,7 +19,7 @@ end their episodes at different steps:
 - ACT's temporal ensembling needs a forward pass per step and environment, outside of this scheme:
   refused in one sentence.
 
-Observations are served from the policy's declared inputs (:func:`libero_bench.lerobot_policy.serve`).
+Observations are served from the policy's declared inputs (:func:`libero_bench.evaluation.lerobot_policy.serve`).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.lerobot_policy import SIM_STATE, SIM_STATE_DIM, Inputs, policy_config, serve
+from libero_bench.evaluation.lerobot_policy import SIM_STATE, SIM_STATE_DIM, Inputs, lerobot_config, serve
 from libero_bench.rollouts.actors import ActionQueues, BatchActor, Observations, Start, forward_threads
 from libero_data.errors import InputError
 from libero_data.seeding import policy_noise_seed
@@ -96,7 +96,7 @@ class LeRobotActor(BatchActor):
 
         super().__init__()
         path = Path(path)
-        config = policy_config(path)
+        config = lerobot_config(path)
         if getattr(config, "temporal_ensemble_coeff", None) is not None:
             raise InputError(
                 f"the {config.type} policy at {path} averages overlapping chunks (temporal_ensemble_coeff), "

@@ -204,16 +204,16 @@ def served_policy(
     ``view_task``, default its last) or a LeRobot ``pretrained_model/`` folder."""
     from pathlib import Path
 
-    from libero_bench.run_files import RunFolder
+    from libero_bench.runs.folder import RunFolder
     from libero_data.runtime.versions import versions
 
     folder = Path(path).resolve()
     metadata: dict[str, Any] = {"server": "libero-bench", "actions_per_request": 1, "versions": versions()}
     if RunFolder(folder).is_run():
-        from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
-        from libero_bench.language import encode_tasks
+        from libero_bench.data.language import encode_tasks
         from libero_bench.rollouts.actors import PolicyActor
-        from libero_bench.runs import load_run
+        from libero_bench.runs.summary import load_run
+        from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
 
         summary = load_run(folder)
         config = summary.config

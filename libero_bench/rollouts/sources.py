@@ -33,7 +33,7 @@ class PolicySource:
 def policy_source(policy: str, image_size: int | None = None, replan_steps: int = 5) -> PolicySource:
     """``policy``: a LeRobot folder (read now, loaded when rollouts start) or a server (reached
     now: an unreachable one is one sentence before any rollout); for a server, the image size
-    sent and the actions executed of each chunk (``libero_bench.policy_eval.EvalRequest``)."""
+    sent and the actions executed of each chunk (``libero_bench.evaluation.policy_eval.EvalRequest``)."""
     if is_server(policy):
         from libero_bench.rollouts.remote import RemoteActor, connect
 
@@ -49,11 +49,11 @@ def policy_source(policy: str, image_size: int | None = None, replan_steps: int 
             {"server": policy, "image_size": size, "replan_steps": replan_steps},
             lambda _device: RemoteActor(policy, image_size=size, replan_steps=replan_steps),
         )
-    from libero_bench.lerobot_policy import policy_config, serve
+    from libero_bench.evaluation.lerobot_policy import lerobot_config, serve
     from libero_bench.rollouts.lerobot_actor import LeRobotActor
 
     folder = Path(policy).resolve()
-    config = policy_config(folder)
+    config = lerobot_config(folder)
     inputs = serve(config.input_features, f"the {config.type} policy at {folder}")
     return PolicySource(
         str(folder),
@@ -68,12 +68,12 @@ def check_policy(policy: str, image_size: int | None = None, replan_steps: int =
     """One sentence, before anything is written or shown, where ``policy`` cannot be evaluated:
     a run folder with no finished task or a damaged or pickled checkpoint, a LeRobot folder with a
     bad config or weights, an unreachable server."""
-    from libero_bench.run_files import RunFolder
+    from libero_bench.runs.folder import RunFolder
 
     if not is_server(policy) and RunFolder(Path(policy)).is_run():
-        from libero_bench.checkpoints import kept_checkpoint, policy_from_checkpoint
-        from libero_bench.run_files import POLICY_FIELDS
-        from libero_bench.runs import load_run
+        from libero_bench.runs.folder import POLICY_FIELDS
+        from libero_bench.runs.summary import load_run
+        from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
         from libero_data.errors import RunError
 
         RunFolder(Path(policy)).read_config(needs=POLICY_FIELDS)

@@ -5,7 +5,6 @@
 >>> text = write(problem)
 """
 
-from libero_data.bddl.errors import BDDLError
 from libero_data.bddl.model import (
     PREDICATES,
     And,
@@ -20,6 +19,7 @@ from libero_data.bddl.model import (
 )
 from libero_data.bddl.parser import parse, parse_file
 from libero_data.bddl.writer import formula_text, write
+from libero_data.errors import BDDLError
 
 __all__ = [
     "PREDICATES",

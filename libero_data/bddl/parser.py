@@ -9,7 +9,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from libero_data.bddl.errors import BDDLError
 from libero_data.bddl.model import (
     CANONICAL_PREDICATE,
     PREDICATES,
@@ -22,6 +21,7 @@ from libero_data.bddl.model import (
     Problem,
     Region,
 )
+from libero_data.errors import BDDLError
 
 _BLOCKS = (
     ":domain",

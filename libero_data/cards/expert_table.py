@@ -195,7 +195,7 @@ def write_report(
     ]
     lines += _length_table(results)
     lines += ["", "| task | instruction | success | mean steps | failures |", "|---|---|---:|---:|---|"]
-    from libero_data.tasks.registry import language_from_name
+    from libero_data.tasks.suites import language_from_name
 
     for r in results:
         fails = "; ".join(f"{k} ({v})" for k, v in r.failures.items())

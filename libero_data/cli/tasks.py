@@ -78,7 +78,7 @@ def show_cmd(
     render_quality: RenderQuality = "full",
 ) -> None:
     """Render a task's initial scene (agentview and eye-in-hand side by side) and print its BDDL."""
-    from libero_data.scene import render_initial_scene
+    from libero_data.initial_scene import render_initial_scene
     from libero_data.tasks import get_task
 
     resolved = get_task(task)

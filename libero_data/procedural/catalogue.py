@@ -365,11 +365,11 @@ def _measure_footprints(tasks: list[Any]) -> dict[str, tuple[float, float]]:
     return out
 
 
-def main() -> None:
+def write_catalogue() -> None:
     data = build_catalogue()
     CATALOGUE_PATH.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
     print(f"wrote {CATALOGUE_PATH}: {len(data['scenes'])} scenes, {len(data['objects'])} object categories")
 
 
 if __name__ == "__main__":
-    main()
+    write_catalogue()

@@ -73,7 +73,7 @@ def check_task(
     """Sample initial states with LIBERO's sampler and try the expert on the first few."""
     from libero_data.experts import Expert
     from libero_data.sim import EnvConfig, LiberoEnv
-    from libero_data.tasks.registry import Task
+    from libero_data.tasks.suites import Task
 
     task = Task("procedural", 0, name, language, bddl_path)
     verdict = Verdict(name, "", "", language, False)

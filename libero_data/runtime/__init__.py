@@ -3,7 +3,7 @@ runner (this process, worker processes or Ray) with per-worker caches, memory hy
 long-lived workers, and the versions every artifact records.
 
 Nothing here knows about tasks, datasets or policies; ``pipeline``, ``experts.report``,
-``procedural.suite`` and ``libero_bench.evaluate`` compose it.
+``procedural.suite`` and ``libero_bench.evaluation.evaluator`` compose it.
 """
 
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys

@@ -7,7 +7,7 @@
 """
 
 from libero_data.errors import TaskLookupError
-from libero_data.tasks.registry import (
+from libero_data.tasks.suites import (
     SUITE_FILES,
     SUITE_MANIFEST,
     SUITE_NAMES,

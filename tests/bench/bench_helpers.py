@@ -34,7 +34,7 @@ def synthetic_batch(
 
 
 class Succeeds:
-    """Stands in for the rollout evaluator (``libero_bench.evaluate.Evaluator``): every rollout
+    """Stands in for the rollout evaluator (``libero_bench.evaluation.evaluator.Evaluator``): every rollout
     succeeds in 3 steps, no simulation."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -57,8 +57,8 @@ class Succeeds:
 
 def run_request(data: Path, **kwargs: Any) -> Any:
     """A tiny ER run request on ``data`` (one epoch, 32 px, task-id language)."""
-    from libero_bench.presets import SMOKE
-    from libero_bench.train import RunRequest
+    from libero_bench.train.presets import SMOKE
+    from libero_bench.train.trainer import RunRequest
 
     preset = SMOKE.replace(epochs=1, batch_size=32, image_size=32, language_encoder="task_id")
     return RunRequest(data=data, algo="er", policy="resnet_t", preset=preset, **kwargs)
@@ -68,8 +68,8 @@ def make_run(data: Path, out: Path) -> Path:
     """A finished run of :func:`run_request` made without simulation (rollouts all succeed)."""
     import pytest
 
-    from libero_bench import evaluate
-    from libero_bench.train import RunOptions, Trainer, plan_run
+    from libero_bench.evaluation import evaluator as evaluate
+    from libero_bench.train.trainer import RunOptions, Trainer, plan_run
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(evaluate, "Evaluator", Succeeds)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import torch
 
-from libero_bench.data import DemoDataset
-from libero_bench.loaders import TaskLoader, WindowDataset, batch_to_device, make_loader
+from libero_bench.data.dataset import DemoDataset
+from libero_bench.data.windows import TaskLoader, WindowDataset, batch_to_device, window_loader
 from libero_data.errors import DatasetError, MissingFileError
 
 pytestmark = pytest.mark.sim  # needs the generated tiny dataset
@@ -102,7 +102,7 @@ def test_order_depends_only_on_the_seed(tiny_dataset: Path) -> None:
     data = WindowDataset(source, [0], [0], _embs(), WINDOW)
 
     def first_actions(seed: int) -> torch.Tensor:
-        return next(iter(make_loader(data, 8, shuffle=True, seed=seed)))["actions"]
+        return next(iter(window_loader(data, 8, shuffle=True, seed=seed)))["actions"]
 
     assert torch.equal(first_actions(5), first_actions(5))
     assert not torch.equal(first_actions(5), first_actions(6))
@@ -113,9 +113,9 @@ def test_worker_processes(tiny_dataset: Path, context: str | None) -> None:
     """Fork workers share the decoded cache; spawn workers get it pickled. Nobody re-decodes."""
     source = DemoDataset(tiny_dataset)
     data = WindowDataset(source, [1], [0], _embs(), WINDOW)
-    single = [b["actions"] for b in make_loader(data, 8, shuffle=True, seed=3)]
+    single = [b["actions"] for b in window_loader(data, 8, shuffle=True, seed=3)]
     workers = 2 if context is None else 1
-    loader = make_loader(data, 8, shuffle=True, seed=3, workers=workers, multiprocessing_context=context)
+    loader = window_loader(data, 8, shuffle=True, seed=3, workers=workers, multiprocessing_context=context)
     batches = [batch_to_device(b, "cpu") for b in loader]
     assert len(batches) == len(single)
     for got, want in zip(batches, single, strict=True):

@@ -6,9 +6,9 @@ import torch
 from bench_helpers import synthetic_batch
 from torch.utils.flop_counter import FlopCounterMode
 
-from libero_bench.flops import count_parameters, forward_flops, policy_table
 from libero_bench.policies import make_policy
 from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
+from libero_bench.train.flops import count_parameters, forward_flops, policy_table
 
 
 def test_count_parameters() -> None:

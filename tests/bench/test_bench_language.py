@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from libero_bench import language
+from libero_bench.data import language
 
 SENTENCES = ["put the bowl on the plate", "open the top drawer of the cabinet"]
 

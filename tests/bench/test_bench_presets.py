@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from libero_bench.presets import PAPER, PRESETS, SMOKE, TrainPreset, get_preset
+from libero_bench.train.presets import PAPER, PRESETS, SMOKE, TrainPreset, get_preset
 
 
 def test_paper_preset_matches_the_libero_protocol() -> None:
@@ -49,7 +49,7 @@ def test_invalid_fields_are_named() -> None:
 
 def test_light_modules_do_not_import_torch() -> None:
     code = (
-        "import sys, libero_bench.metrics, libero_bench.presets, libero_bench.language;"
+        "import sys, libero_bench.analysis.metrics, libero_bench.train.presets, libero_bench.data.language;"
         "print('torch' in sys.modules)"
     )
     out = subprocess.run(
@@ -59,7 +59,7 @@ def test_light_modules_do_not_import_torch() -> None:
 
 
 def test_augment_overrides_the_policy_default_and_runs_made_before_it_resume(tiny_dataset, tmp_path) -> None:
-    from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
+    from libero_bench.train.trainer import RunOptions, RunRequest, Trainer, plan_run
     from libero_data.errors import SettingsChanged
 
     quick = get_preset("quick")

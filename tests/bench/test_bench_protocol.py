@@ -13,12 +13,12 @@ import pytest
 import torch
 from bench_helpers import Succeeds
 
-from libero_bench import evaluate
 from libero_bench.algos import ALGOS
-from libero_bench.checkpoints import read_checkpoint
-from libero_bench.presets import SMOKE
+from libero_bench.evaluation import evaluator as evaluate
 from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
-from libero_bench.train import RunOptions, RunRequest, Trainer, plan_run
+from libero_bench.train.checkpoints import read_checkpoint
+from libero_bench.train.presets import SMOKE
+from libero_bench.train.trainer import RunOptions, RunRequest, Trainer, plan_run
 
 pytestmark = pytest.mark.sim  # needs the generated tiny dataset (no simulation runs here)
 
@@ -38,7 +38,7 @@ def _digest(policy: torch.nn.Module) -> float:
 
 
 class ScriptedEvaluator(Succeeds):
-    """Stands in for :class:`libero_bench.evaluate.Evaluator`: successes come from the tables
+    """Stands in for :class:`libero_bench.evaluation.evaluator.Evaluator`: successes come from the tables
     above; every call records the policy's weights digest."""
 
     calls: ClassVar[list[dict[str, Any]]] = []

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from libero_bench import metrics
+from libero_bench.analysis import metrics
 
 # One xdist worker runs this module (its run is built once) and the other Ray test: two local
 # Ray instances at once would crowd 2 cores and memory.
@@ -237,7 +237,7 @@ def test_saliency(bench_run: Path, tmp_path: Path) -> None:
     table = recording.view(index="frame", contents="/**").select().read_all()
     assert table.column("frame").to_pylist() == [0, 20]
     assert any(c.startswith("/saliency:") for c in table.column_names)
-    from libero_bench.saliency_run import saliency_for_run
+    from libero_bench.analysis.saliency_run import saliency_for_run
 
     # in this process: the 4th rollout of task 0 is the run's 4th episode (rollouts sort by key)
     written = saliency_for_run(bench_run, task="0", source="rollout", rollout=3, out=tmp_path / "r")
@@ -452,7 +452,7 @@ def test_a_task_interrupted_between_epochs_goes_on_after_its_last_finished_epoch
     ours, theirs = _results(out), _results(reference)
     assert ours["losses"] == theirs["losses"] and ours["curve"] == theirs["curve"]
     assert ours["rollouts"] == theirs["rollouts"]
-    from libero_bench.checkpoints import read_checkpoint
+    from libero_bench.train.checkpoints import read_checkpoint
 
     a = read_checkpoint(out / "checkpoints" / "task_000.safetensors")["policy"]
     b = read_checkpoint(reference / "checkpoints" / "task_000.safetensors")["policy"]

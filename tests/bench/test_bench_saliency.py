@@ -7,8 +7,8 @@ import pytest
 import torch
 from torch import Tensor, nn
 
+from libero_bench.analysis.saliency import gaussian_blur, overlay, saliency_map
 from libero_bench.policies import make_policy
-from libero_bench.saliency import gaussian_blur, overlay, saliency_map
 
 
 class CornerEncoder(nn.Module):

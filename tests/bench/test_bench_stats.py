@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from libero_bench.compare import compare_runs
-from libero_bench.report import summarize, write_report
-from libero_bench.run_files import RUN_FORMAT, RunResults, rollout_key
-from libero_bench.runs import load_run
+from libero_bench.analysis.compare import compare_runs
+from libero_bench.analysis.report import summarize, write_report
+from libero_bench.runs.folder import RUN_FORMAT, RunResults, rollout_key
+from libero_bench.runs.summary import load_run
 from libero_data.stats import mcnemar_exact
 
 TASKS = ["pick_up_the_ketchup", "pick_up_the_milk"]

@@ -16,9 +16,9 @@ from typing import Any
 
 import pytest
 
-from libero_bench.intervals import final_rates
-from libero_bench.presets import get_preset
-from libero_bench.run_files import STARTS, RunResults
+from libero_bench.analysis.intervals import final_rates
+from libero_bench.runs.folder import STARTS, RunResults
+from libero_bench.train.presets import get_preset
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "quick"
 SINGLE = ("single-0", "single-1", "single-2")
@@ -90,7 +90,7 @@ def test_the_lifelong_pair_shares_data_tasks_and_seed() -> None:
 
 
 def test_the_committed_comparison_is_what_compare_makes_from_the_committed_runs() -> None:
-    from libero_bench.compare import compare_runs
+    from libero_bench.analysis.compare import compare_runs
 
     made = compare_runs(RESULTS / "runs" / "seql", RESULTS / "runs" / "er")
     committed = json.loads((RESULTS / "lifelong" / "compare.json").read_text())

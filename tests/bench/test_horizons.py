@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from libero_bench.eval_report import markdown, summarize
-from libero_bench.policy_eval import EvalRequest
-from libero_bench.presets import PAPER, QUICK, SMOKE, TrainPreset
-from libero_bench.robustness import SweepRequest
+from libero_bench.evaluation.eval_report import eval_markdown, summarize_eval
+from libero_bench.evaluation.policy_eval import EvalRequest
+from libero_bench.robustness.cells import SweepRequest
 from libero_bench.rollouts.jobs import EvalTask, make_job
+from libero_bench.train.presets import PAPER, QUICK, SMOKE, TrainPreset
 from libero_data.errors import InputError
 from libero_data.tasks.horizons import (
     HUMAN_LONGEST,
@@ -116,12 +116,12 @@ def test_the_report_states_each_tasks_limit_and_counts_cuts_against_it() -> None
 
     # 300 steps is a cut for the 280-step task, not for the 520-step one.
     records = [record(0, False, 300), record(0, False, 520), record(1, False, 300), record(1, True, 200)]
-    summary = summarize(settings, records, {})
+    summary = summarize_eval(settings, records, {})
     rows = {row["task"]: row for row in summary["tasks"]}
     assert (rows["long"]["max_steps"], rows["long"]["cut"]) == (520, 1)
     assert (rows["short"]["max_steps"], rows["short"]["cut"]) == (280, 1)
     assert summary["all"]["cut"] == 2 and summary["max_steps"] == SUITE
-    text = markdown(summary)
+    text = eval_markdown(summary)
     assert "each task's suite limit" in text and "| 520 |" in text and "| 280 |" in text
 
 
@@ -133,7 +133,7 @@ def test_an_evaluation_folder_made_before_per_task_limits_reads_its_one_limit() 
         "tasks": [{"position": 0, "name": "t", "language": "a"}],
     }
     records = [{"task_position": 0, "start": "heldout", "success": False, "steps": 300, "init_index": -1}]
-    assert summarize(settings, records, {})["tasks"][0]["max_steps"] == 300
+    assert summarize_eval(settings, records, {})["tasks"][0]["max_steps"] == 300
 
 
 def test_the_lerobot_plugin_takes_the_suites_limit_unless_told() -> None:

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from libero_bench.lerobot_policy import serve
+from libero_bench.evaluation.lerobot_policy import serve
 from libero_data.errors import InputError
 
 VENV_BIN = Path(sys.executable).parent
@@ -211,7 +211,7 @@ def test_lerobot_batches_give_every_rollout_the_start_libero_bench_gives_it(
     from lerobot_env_libero_data.env import LiberoDataGymEnv
     from lerobot_policies import save_policy
 
-    from libero_bench.lerobot_policy import policy_config
+    from libero_bench.evaluation.lerobot_policy import lerobot_config
     from libero_bench.rollouts.jobs import EvalTask
     from libero_data.tasks import get_task
 
@@ -223,7 +223,7 @@ def test_lerobot_batches_give_every_rollout_the_start_libero_bench_gives_it(
 
     monkeypatch.setattr(LiberoDataGymEnv, "step", succeed_early)
     folder = save_policy("act", tmp_path / "act")
-    config = policy_config(folder)
+    config = lerobot_config(folder)
     policy = get_policy_class(config.type).from_pretrained(str(folder), config=config).eval()
     pre, post = make_pre_post_processors(policy_cfg=config, pretrained_path=str(folder))
     env_config = LiberoDataEnvConfig(

@@ -19,7 +19,7 @@ import pytest
 import torch
 from bench_helpers import Succeeds, run_request
 
-from libero_bench.mixing import MixedWindows, MixEpisode, mixed_seeds
+from libero_bench.data.mixing import MixedWindows, MixEpisode, mixed_seeds
 from libero_data.errors import InputError
 from libero_data.seeding import heldout_seed, heldout_starts, loader_epoch_seed
 
@@ -53,7 +53,7 @@ def variants(tiny_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Pa
 
 
 def _plan(tiny_dataset: Path, variants: Path, weight: float = 0.25, tasks: tuple[str, ...] = ("0", "7")):
-    from libero_bench.plan import plan_run
+    from libero_bench.train.plan import plan_run
 
     return plan_run(run_request(tiny_dataset, tasks=tasks, mix=(variants,), mix_weight=weight))
 
@@ -76,11 +76,11 @@ def test_each_task_takes_its_own_variants(tiny_dataset: Path, variants: Path) ->
 
 
 def test_weights_are_honoured_and_the_epoch_keeps_its_length(tiny_dataset: Path, variants: Path) -> None:
-    from libero_bench.fitting import make_loader
+    from libero_bench.train.fitting import task_loader
 
     for weight in (0.0, 0.25, 0.6):
         plan = _plan(tiny_dataset, variants, weight)
-        loader = make_loader(plan, [0, 1], seed=3, device=torch.device("cpu"))
+        loader = task_loader(plan, [0, 1], seed=3, device=torch.device("cpu"))
         data = loader.dataset
         assert isinstance(data, MixedWindows)
         own = len(data.base)
@@ -104,10 +104,10 @@ def test_weights_are_honoured_and_the_epoch_keeps_its_length(tiny_dataset: Path,
 def test_held_out_starts_skip_every_training_start(
     tiny_dataset: Path, variants: Path, tmp_path: Path
 ) -> None:
-    from libero_bench.observer import RunObserver
-    from libero_bench.plan import plan_run
-    from libero_bench.rounds import EvaluationRounds
-    from libero_bench.run_files import RunFolder
+    from libero_bench.runs.folder import RunFolder
+    from libero_bench.train.observer import RunObserver
+    from libero_bench.train.plan import plan_run
+    from libero_bench.train.rounds import EvaluationRounds
 
     plan = _plan(tiny_dataset, variants)
     base = plan_run(run_request(tiny_dataset, tasks=("0", "7")))
@@ -125,8 +125,8 @@ def test_held_out_starts_skip_every_training_start(
 
 
 def test_a_mixed_run_records_its_mix(tiny_dataset: Path, variants: Path, tmp_path: Path) -> None:
-    from libero_bench import evaluate
-    from libero_bench.train import RunOptions, Trainer
+    from libero_bench.evaluation import evaluator as evaluate
+    from libero_bench.train.trainer import RunOptions, Trainer
     from libero_data.runtime.files import read_json
 
     out = tmp_path / "run"
@@ -156,7 +156,7 @@ def test_bad_mixes_are_refused(tiny_dataset: Path, variants: Path) -> None:
     path = other / "meta" / "libero_episodes.jsonl"
     rows = [json.loads(line) for line in path.read_text().splitlines()]
     path.write_text("".join(json.dumps({**r, "task_name": "put_the_bowl__layout"}) + "\n" for r in rows))
-    from libero_bench.plan import plan_run
+    from libero_bench.train.plan import plan_run
 
     with pytest.raises(InputError, match="no episodes of turn_on_the_stove or of their variants"):
         plan_run(run_request(tiny_dataset, tasks=("7",), mix=(other,)))

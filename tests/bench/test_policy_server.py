@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from lerobot_policies import save_policy
 
-from libero_bench.policy_eval import EvalRequest, evaluate_policy
+from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy
 from libero_bench.rollouts.loop import Execution
 from libero_data.errors import PolicyServerError
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from libero_bench.robustness import Cell, table
-from libero_bench.robustness_compare import compare_sweeps, mean_difference, write_comparison
+from libero_bench.robustness.cells import Cell, table
+from libero_bench.robustness.paired import compare_sweeps, mean_difference, write_comparison
 from libero_data.errors import RunError
 
 TASK = "pick_up_the_alphabet_soup_and_place_it_in_the_basket"

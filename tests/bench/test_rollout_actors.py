@@ -19,7 +19,7 @@ import pytest
 import torch
 from lerobot_policies import save_policy
 
-from libero_bench.lerobot_policy import policy_config, serve
+from libero_bench.evaluation.lerobot_policy import lerobot_config, serve
 from libero_bench.rollouts.actors import ActionQueues, Start
 from libero_bench.rollouts.lerobot_actor import LeRobotActor, raw_batch
 from libero_bench.rollouts.remote import RemoteActor, connect
@@ -43,7 +43,7 @@ def _alone(folder: Path, key: str, observations: list[dict[str, np.ndarray]]) ->
     """LeRobot's own loop for one environment: pre-processor, select_action, post-processor."""
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
-    config = policy_config(folder)
+    config = lerobot_config(folder)
     policy = get_policy_class(config.type).from_pretrained(str(folder), config=config).eval()
     pre, post = make_pre_post_processors(policy_cfg=config, pretrained_path=str(folder))
     inputs = serve(config.input_features)

@@ -15,7 +15,7 @@ from libero_bench.policies import make_policy
 from libero_bench.rollouts.actors import Observations, PolicyActor
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, make_job
 from libero_bench.rollouts.loop import Execution
-from libero_bench.run_files import HELDOUT, STORED
+from libero_bench.runs.folder import HELDOUT, STORED
 from libero_data.record.features import OBS_SIM_STATE
 from libero_data.seeding import heldout_starts
 from libero_data.tasks import get_task

@@ -17,12 +17,12 @@ import torch
 from bench_helpers import Succeeds, run_request
 from typer.testing import CliRunner
 
-from libero_bench import evaluate
-from libero_bench.checkpoints import CHECKPOINT, EPOCH_STATE, read_checkpoint
 from libero_bench.cli import app
-from libero_bench.migrate import migrate
-from libero_bench.state_files import is_pickle, load_state, load_weights, save_state
-from libero_bench.train import RunOptions, Trainer, plan_run
+from libero_bench.evaluation import evaluator as evaluate
+from libero_bench.runs.migrate import migrate
+from libero_bench.runs.state_files import is_pickle, load_state, load_weights, save_state
+from libero_bench.train.checkpoints import CHECKPOINT, EPOCH_STATE, read_checkpoint
+from libero_bench.train.trainer import RunOptions, Trainer, plan_run
 from libero_data.errors import CheckpointError
 
 

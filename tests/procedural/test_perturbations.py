@@ -211,7 +211,7 @@ def test_contact_sheet_of_a_kind_shows_six_levels(tmp_path: Path) -> None:
 
 @pytest.mark.sim
 def test_only_the_kinds_the_sweep_widens_for_change_the_simulator_state_width(tmp_path: Path) -> None:
-    from libero_bench.robustness_run import WIDER_KINDS
+    from libero_bench.robustness.run_policy import WIDER_KINDS
     from libero_data.pipeline.request import state_width
 
     task = get_task("libero_object/0")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 from torch import Tensor, nn
 
-from libero_bench.batch_keys import GRIPPER_DIM, JOINT_DIM
+from libero_bench.data.batch_keys import GRIPPER_DIM, JOINT_DIM
 
 
 def mlp(input_dim: int, hidden_dim: int, output_dim: int, num_layers: int = 1) -> nn.Sequential:

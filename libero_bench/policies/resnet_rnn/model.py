@@ -8,7 +8,7 @@ from typing import Any
 import torch
 from torch import Tensor, nn
 
-from libero_bench.batch_keys import (
+from libero_bench.data.batch_keys import (
     AGENTVIEW,
     GRIPPER_DIM,
     GRIPPER_STATES,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import torch
 from torch import Tensor, nn
 
-from libero_bench.batch_keys import AGENTVIEW, GRIPPER_STATES, JOINT_STATES, TASK_EMB, WRIST
+from libero_bench.data.batch_keys import AGENTVIEW, GRIPPER_STATES, JOINT_STATES, TASK_EMB, WRIST
 from libero_bench.policies.base import POLICIES, Batch, TokenPolicy
 from libero_bench.policies.modules.film_resnet import FiLMResNetEncoder
 from libero_bench.policies.modules.gmm import GMMHead

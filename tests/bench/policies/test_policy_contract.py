@@ -12,7 +12,7 @@ from libero_bench.policies import POLICIES, Policy, config_from_dict, make_polic
 from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
 from libero_bench.policies.resnet_t.config import ResNetTConfig
 from libero_bench.policies.vit_t.config import ViTTConfig
-from libero_bench.presets import POLICY_SIZES
+from libero_bench.train.presets import POLICY_SIZES
 
 
 def small(name: str, image_size: int = 32, **overrides: object) -> Policy:

@@ -1,0 +1,1 @@
+"""Reading results: reports and plots, lifelong metrics, intervals, paired comparisons of runs, saliency."""

@@ -1,0 +1,143 @@
+"""The rollout dataset of a run: every evaluation rollout joined into one LeRobot dataset.
+
+Each rollout was written as a one-episode shard by the job that ran it
+(:mod:`libero_bench.rollouts.episodes`); :func:`build_rollout_dataset` joins them, in
+rollout-key order, with the card below. ``datasets.load_dataset`` reads the result.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from libero_bench.runs.folder import RunFolder, RunResults
+from libero_data.errors import RunError
+
+if TYPE_CHECKING:
+    from libero_bench.rollouts.jobs import EvalTask
+    from libero_bench.train.plan import RunPlan
+
+ROLLOUT_CARD = """---
+license: mit
+task_categories:
+- robotics
+tags:
+- LeRobot
+- LIBERO
+- libero-bench
+- policy-rollouts
+dataset_info:
+  splits:
+  - name: train
+    num_examples: {frames}
+configs:
+- config_name: default
+  data_files: data/*/*.parquet
+---
+
+# Evaluation rollouts of a libero-bench run
+
+Every evaluation rollout of the run `{run}` ({algo} + {policy}, preset `{preset}`, seed {seed}):
+{episodes} episodes over {tasks} tasks, recorded like demonstrations (both cameras, 8-D state,
+joint positions, gripper state, 7-D actions and the MuJoCo state of every frame).
+
+`meta/libero_episodes.jsonl` tags each episode with its task (`task_name`, `task_position`),
+the task learned last when it ran (`learned_after`, `learned_after_position`), the training
+epoch (`epoch`; null for the evaluations after later tasks), the phase (`learning`, `after`,
+`pruned`), the run seed, the init state (`init_index`, `env_seed`) and `success`.
+Each episode has an MCAP log in `mcap/`; the run folder has a Rerun recording per rollout.
+"""
+
+
+def build_rollout_dataset(
+    shards: Sequence[Path],
+    out: Path,
+    *,
+    run_meta: Mapping[str, Any],
+    bddl: Mapping[str, str],
+    work_dir: Path,
+) -> int:
+    """Join rollout shards (in the given order) into the LeRobot dataset ``out``; returns the
+    number of episodes. Built beside ``out`` and swapped in, so ``out`` is always complete."""
+    import shutil
+
+    from libero_data.pipeline.publish import unstamp
+    from libero_data.pipeline.snapshot import build_snapshot
+
+    shards = [Path(s) for s in shards]
+    if not shards:
+        raise RunError("the run has no rollouts to collect")
+    staging = work_dir / "rollouts-staging"
+    card = ROLLOUT_CARD.format(
+        run=run_meta.get("run", ""),
+        algo=run_meta.get("algo", ""),
+        policy=run_meta.get("policy", ""),
+        preset=run_meta.get("preset", ""),
+        seed=run_meta.get("seed", ""),
+        episodes=len(shards),
+        tasks=len(bddl),
+        frames=sum(int(json.loads((s / "episode.json").read_text())["length"]) for s in shards),
+    )
+    from libero_data.record.shard import quiet_datasets
+
+    with quiet_datasets():
+        build_snapshot(
+            shards,
+            staging,
+            repo_id="libero-bench/rollouts",
+            snapshot_id=f"rollouts-{len(shards)}",
+            dataset_meta=dict(run_meta),
+            bddl=dict(bddl),
+            card=card,
+        )
+    unstamp(staging)  # built whole and swapped in: the publishing stamps have no use here
+    old = work_dir / "rollouts-old"
+    if old.exists():
+        shutil.rmtree(old)
+    if out.exists():
+        out.rename(old)
+    staging.rename(out)
+    if old.exists():
+        shutil.rmtree(old)
+    return len(shards)
+
+
+def collect_run_rollouts(
+    folder: RunFolder, plan: RunPlan, results: RunResults, tasks: Sequence[EvalTask]
+) -> int:
+    """Join every rollout of a run's ``results`` into ``RUN/rollouts``; returns the episode count."""
+    import logging
+    import time
+
+    keys = sorted(r["key"] for r in results.rollouts)
+    missing = [k for k in keys if not (folder.shard(k) / "episode.json").is_file()]
+    if missing:
+        raise RunError(f"{folder.root}: rollout {missing[0]} is missing from {folder.shards}")
+    meta = {
+        "run": folder.root.name,
+        "algo": plan.request.algo,
+        "policy": plan.request.policy,
+        "preset": plan.preset.name,
+        "seed": plan.seed,
+        "request": {"repo_id": "libero-bench/rollouts", "suite": plan.source.suite},
+        "sim_state_width": plan.source.sim_state_width,
+        "tasks": [
+            {"name": t.name, "language": t.language, "index": t.suite_index, "position": i}
+            for i, t in enumerate(plan.tasks)
+        ],
+    }
+    started = time.perf_counter()
+    count = build_rollout_dataset(
+        [folder.shard(k) for k in keys],
+        folder.rollouts,
+        run_meta=meta,
+        bddl={t.name: Path(t.env_ref).read_text() for t in tasks},
+        work_dir=folder.work,
+    )
+    folder.append_timing(
+        {"what": "collect_rollouts", "episodes": count, "seconds": round(time.perf_counter() - started, 3)}
+    )
+    logging.getLogger(__name__).info("rollout dataset: %d episodes in %s", count, folder.rollouts)
+    return count

@@ -1,0 +1,114 @@
+"""Running a robustness sweep (``libero-bench robustness``): the variants, the policy's
+rollouts on them (a libero-bench run's or a LeRobot policy's), and the report
+(:mod:`libero_bench.robustness.cells` says what a sweep measures)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from libero_bench.robustness.cells import (
+    VARIANTS,
+    Cell,
+    SweepRequest,
+    heldout_seeds,
+    make_cells,
+    table,
+    write_sweep_report,
+)
+from libero_bench.rollouts.loop import Execution
+
+
+def sweep(
+    policy: str | Path,
+    request: SweepRequest,
+    out: str | Path,
+    *,
+    execution: Execution | None = None,
+    on_result: Callable[[Any], None] | None = None,
+    on_total: Callable[[int], None] | None = None,
+    keep_work: bool = False,
+) -> dict[str, Any]:
+    """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
+    policy server, ``ws://HOST:PORT``); ``keep_work`` keeps the rollouts' shards once joined."""
+    from libero_bench.rollouts.sources import check_policy, is_server
+    from libero_bench.runs.folder import RunFolder
+    from libero_data.runtime.versions import versions
+
+    execution = execution or Execution()
+    out = Path(out).resolve()
+    ref = str(policy) if is_server(str(policy)) else str(Path(policy).resolve())
+    check_policy(ref, request.image_size, request.replan_steps)  # before anything is written
+    cells = make_cells(request, out / VARIANTS)
+    if not is_server(ref) and RunFolder(Path(ref)).is_run():
+        from libero_bench.robustness.run_policy import run_outcomes
+
+        outcomes, name, seeds = run_outcomes(
+            Path(ref), request, cells, out, execution, on_result, on_total, keep_work
+        )
+    else:
+        outcomes, name, seeds = _lerobot_outcomes(
+            ref, request, cells, out, execution, on_result, on_total, keep_work
+        )
+    summary = {
+        "policy": ref,
+        "policy_name": name,
+        "request": dataclasses.asdict(request),
+        "step_limits": request.step_limits(),
+        "versions": versions(),
+        "table": table(cells, outcomes, request.kinds, request.levels),
+        # what a paired comparison of two sweeps needs (libero_bench.robustness.paired)
+        "heldout_seeds": {name: list(s) for name, s in seeds.items()},
+        "outcomes": {name: [bool(ok) for ok in oks] for name, oks in sorted(outcomes.items())},
+    }
+    write_sweep_report(out, summary, request.levels)
+    return summary
+
+
+def _lerobot_outcomes(
+    policy: str,
+    request: SweepRequest,
+    cells: list[Cell],
+    out: Path,
+    execution: Execution,
+    on_result: Callable[[Any], None] | None,
+    on_total: Callable[[int], None] | None,
+    keep_work: bool,
+) -> tuple[dict[str, list[bool]], str, dict[str, tuple[int, ...]]]:
+    """Outcomes per cell of a LeRobot policy or a served one (``libero-bench eval`` on the
+    variants suite), its name and the held-out seeds per source task."""
+    from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy, training_starts
+    from libero_bench.rollouts.sources import is_server
+
+    _, starts = training_starts(Path(policy)) if not is_server(policy) else (None, {})
+    seeds = heldout_seeds(request, {name: s[1] for name, s in starts.items()})
+    by_name = {c.name: seeds[c.source] for c in cells if not c.reason}
+    limits = request.step_limits()
+    summary = evaluate_policy(
+        EvalRequest(
+            policy,
+            (str(out / VARIANTS),),
+            stored=0,
+            heldout=request.rollouts,
+            max_steps=request.max_steps,
+            settle=request.settle,
+            render_quality=request.render_quality,
+            image_size=request.image_size,
+            replan_steps=request.replan_steps,
+        ),
+        out / "eval",
+        execution=execution,
+        on_result=on_result,
+        on_total=on_total,
+        heldout_seeds=by_name,
+        step_limits={c.name: limits[c.source] for c in cells if not c.reason},
+        keep_work=keep_work,
+    )
+    records = json.loads((out / "eval" / "results.json").read_text())["rollouts"]
+    outcomes: dict[str, list[bool]] = {}
+    for r in sorted(records, key=lambda r: (r["task"], r["rollout"])):
+        outcomes.setdefault(r["task"], []).append(bool(r["success"]))
+    return outcomes, f"{summary['policy_type']} policy", seeds

@@ -1,0 +1,1 @@
+"""Training: a run's plan, the trainer, fitting, evaluation rounds, checkpoints, presets."""

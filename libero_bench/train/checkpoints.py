@@ -1,0 +1,159 @@
+"""A run's per-task checkpoints (policy, algorithm state, random streams) and the weights a
+run may start from, plus seeding the process's random streams."""
+
+from __future__ import annotations
+
+import logging
+import random
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from libero_bench.runs.folder import RUN_FORMAT, RunFolder
+from libero_bench.runs.state_files import load_state, load_weights, save_state
+from libero_data.errors import CheckpointError, InputError, RunError, first_line
+
+if TYPE_CHECKING:
+    import torch
+
+    from libero_bench.algos import Algo
+    from libero_bench.policies import Policy
+
+logger = logging.getLogger(__name__)
+
+#: What :mod:`state_files` records a file to be.
+CHECKPOINT, EPOCH_STATE = "libero-bench checkpoint", "libero-bench epoch state"
+
+
+def seed_everything(seed: int) -> None:
+    """Seed torch, NumPy's global stream and Python's ``random``."""
+    import torch
+
+    torch.manual_seed(seed)
+    np.random.seed(seed % 2**32)
+    random.seed(seed)
+
+
+def rng_state() -> dict[str, Any]:
+    """The random streams' state (saved with each checkpoint)."""
+    import torch
+
+    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
+
+
+def save_checkpoint(
+    path: Path, *, task: int, stage: str, policy_config: dict[str, Any], policy: Policy, algo: Algo
+) -> Path:
+    """Write the checkpoint after ``task`` atomically (safetensors: see :mod:`state_files`)."""
+    state = {
+        "format": RUN_FORMAT,
+        "task": task,
+        "stage": stage,
+        "policy_config": policy_config,
+        "policy": {k: v.detach().cpu() for k, v in policy.state_dict().items()},
+        "algo": algo.state_dict(),
+        "rng": rng_state(),
+    }
+    return save_state(path, state, kind=CHECKPOINT)
+
+
+def restore_rng(state: dict[str, Any]) -> None:
+    """Put the random streams back where :func:`rng_state` found them."""
+    import torch
+
+    torch.set_rng_state(state["torch"])
+    np.random.set_state(state["numpy"])
+    random.setstate(state["python"])
+
+
+def save_epoch_state(path: Path, state: dict[str, Any]) -> Path:
+    """Write the state after a finished epoch of the task in progress atomically."""
+    return save_state(path, {"format": RUN_FORMAT, **state, "rng": rng_state()}, kind=EPOCH_STATE)
+
+
+def load_epoch_state(path: Path, positions: list[int]) -> dict[str, Any] | None:
+    """The state :func:`save_epoch_state` wrote for these task positions, or None."""
+    if not path.is_file():
+        return None
+    data = load_state(path, kind=EPOCH_STATE)
+    if not isinstance(data, dict) or data.get("format") != RUN_FORMAT or data.get("positions") != positions:
+        return None
+    return data
+
+
+def read_checkpoint(path: Path) -> dict[str, Any]:
+    """A run's checkpoint as written by :func:`save_checkpoint` (one sentence if it is not)."""
+    data = load_state(path, kind=CHECKPOINT)
+    missing = [
+        k for k in ("policy", "algo") if not isinstance(data, dict) or not isinstance(data.get(k), dict)
+    ]
+    if missing:
+        raise CheckpointError(f"the checkpoint {path} has no {' or '.join(missing)} state")
+    return dict(data)
+
+
+def _load_into(path: Path, policy: Policy, algo: Algo, data: dict[str, Any]) -> None:
+    try:
+        policy.load_state_dict(data["policy"])
+        algo.load_state_dict(data["algo"])
+    except (RuntimeError, KeyError, TypeError, ValueError) as exc:
+        first = first_line(exc)
+        raise CheckpointError(
+            f"the checkpoint {path} does not fit this run's policy or algorithm: {first}"
+        ) from None
+    algo.bind(policy)
+
+
+def load_checkpoint(path: Path, policy: Policy, algo: Algo) -> None:
+    """Load a checkpoint's policy weights and algorithm state (and bind the two)."""
+    _load_into(path, policy, algo, read_checkpoint(path))
+
+
+def load_initial_weights(path: Path, policy: Policy, device: torch.device, policy_name: str) -> None:
+    """Start ``policy`` from other weights (a run's checkpoint, or bare safetensors weights)."""
+    state = load_weights(path, device=str(device))
+    try:
+        policy.load_state_dict(state)
+    except RuntimeError as exc:
+        first = first_line(exc)
+        raise InputError(
+            f"the initial checkpoint {path} does not fit the {policy_name} policy: {first}",
+            field="init_checkpoint",
+        ) from None
+    logger.info("policy initialised from %s", path)
+
+
+def kept_checkpoint(folder: RunFolder, config: dict[str, Any], position: int) -> Path:
+    """The checkpoint a run kept after the task at ``position`` (MTL: its one checkpoint)."""
+    from libero_bench.algos import ALGOS
+
+    folder.refuse_pickles()
+    index = 0 if ALGOS.get(config["algo"]).needs_all_tasks else position
+    path = folder.checkpoint(index)
+    if not path.is_file():
+        name = config["tasks"][position]["name"]
+        raise RunError(f"{path} is missing: the run has no checkpoint after task {name}")
+    return path
+
+
+def policy_from_checkpoint(config: dict[str, Any], checkpoint: Path, position: int) -> tuple[Any, Any]:
+    """(policy, algorithm) of a checkpoint, in the algorithm's evaluation view of the task."""
+    from libero_bench.algos import ALGOS, algo_config_from_dict
+    from libero_bench.policies import POLICIES, config_from_dict
+
+    state = read_checkpoint(checkpoint)
+    try:
+        pconfig = config_from_dict(config["policy_config"])
+        policy = POLICIES.get(pconfig.name).from_config(pconfig)
+        acfg = algo_config_from_dict(config["algo_config"])
+        algo = ALGOS.get(acfg.name)(acfg)
+    except (KeyError, TypeError, ValueError) as exc:
+        what = first_line(exc)
+        raise RunError(
+            f"the config.json of the run with {checkpoint} does not describe a policy and algorithm "
+            f"libero-bench can build ({what})"
+        ) from None
+    _load_into(checkpoint, policy, algo, state)
+    algo.set_eval_task(position)
+    return policy.eval(), algo

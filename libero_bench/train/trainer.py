@@ -1,0 +1,439 @@
+"""The lifelong-learning protocol of the LIBERO paper: train task after task, evaluate in
+simulation, keep the best checkpoint, re-evaluate earlier tasks, resume after interruption.
+
+For each task ``tau`` of the run, in order (see :mod:`libero_bench.algos.base` for the hooks):
+
+1. ``algo.start_task(tau, policy)``; a fresh AdamW and a cosine schedule from ``lr`` to
+   ``lr_min`` over the preset's epochs (stepped once per epoch, as upstream LIBERO).
+2. Epoch 0 measures the loss without training; epochs 1..E train. At every evaluated epoch
+   (0, ``eval_every``, ...) the task is rolled out ``eval_rollouts`` times from fixed init
+   states: ``curve[tau, e]``. The weights with the best success (the earliest on ties) are
+   kept and loaded when the epochs are done (``keep_best``).
+3. ``algo.end_task``. An algorithm with post-task epochs (PackNet) is evaluated on the task
+   right after pruning (``pruned[tau]``, not part of the curve), then fine-tuned.
+4. The checkpoint (policy + algorithm state + RNG) is saved, then every earlier task ``k``
+   is evaluated with it: ``after[tau, k]``; ``after[tau, tau]`` is the best success.
+
+MTL (``algo.needs_all_tasks``) trains once on all tasks' data, evaluates every task at each
+evaluated epoch and keeps the checkpoint with the best mean success; ``after[tau, k]`` is
+that checkpoint's success on ``k`` for every ``tau``.
+
+Everything a run writes lives in its folder (:mod:`libero_bench.runs.folder`). ``results.json``
+is rewritten after every task stage, the checkpoint before it; running the same command
+again continues after the last finished stage with the same numbers (every task reseeds
+torch from the run seed and the task's position, :func:`libero_data.seeding.run_seed`;
+loaders shuffle from the same seeds). Within a task, the state after each finished epoch
+(weights, optimiser, schedule, best weights so far, results, random streams) is saved too, so
+an interrupted task goes on after its last finished epoch, again with the same numbers.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from libero_bench.evaluation import evaluator as evaluate
+from libero_bench.runs.folder import AFTER, LEARNING, PRUNED, STARTS, STORED, RunFolder, RunResults
+from libero_bench.train.checkpoints import (
+    load_checkpoint,
+    load_epoch_state,
+    load_initial_weights,
+    restore_rng,
+    save_checkpoint,
+    save_epoch_state,
+    seed_everything,
+)
+from libero_bench.train.fitting import loss_epoch, make_optimiser, task_loader, train_epoch
+from libero_bench.train.observer import RunObserver
+from libero_bench.train.plan import (
+    RUNTIME_KEYS,
+    RunOptions,
+    RunPlan,
+    RunRequest,
+    check_device,
+    check_out_folder,
+    plan_run,
+)
+from libero_bench.train.rounds import EvaluationRounds
+from libero_data.errors import SettingsChanged
+from libero_data.runtime.files import write_json
+from libero_data.runtime.folder import changed_keys
+from libero_data.seeding import END_TASK_LOADER, LOADER, TASK_START, WEIGHTS, run_seed
+
+if TYPE_CHECKING:
+    from libero_bench.algos import Algo
+    from libero_bench.data.windows import TaskLoader
+    from libero_bench.policies import Policy
+
+__all__ = ["RunObserver", "RunOptions", "RunRequest", "Trainer", "plan_run", "run_lifelong"]
+
+logger = logging.getLogger(__name__)
+
+#: What a run's preset meant by fields added after it was made (its config.json lacks them).
+LEGACY_PRESET: dict[str, Any] = {"augment": None}
+
+
+class Trainer:
+    """Runs (or resumes) one lifelong run in ``out``; see the module docstring."""
+
+    def __init__(
+        self,
+        plan: RunPlan,
+        out: Path,
+        options: RunOptions | None = None,
+        observer: RunObserver | None = None,
+    ) -> None:
+        self.plan = plan
+        self.preset = plan.preset
+        self.folder = RunFolder(Path(out))
+        self.options = options or RunOptions()
+        self.rounds = EvaluationRounds(plan, self.folder, observer or RunObserver())
+        self.device = check_device(self.options.device)
+        self.K = len(plan.tasks)
+        self.eval_epochs = self.preset.eval_epochs()
+        self._results: RunResults | None = None
+
+    @property
+    def observer(self) -> RunObserver:
+        return self.rounds.observer
+
+    @observer.setter
+    def observer(self, observer: RunObserver) -> None:
+        self.rounds.observer = observer
+
+    # -- set-up ----------------------------------------------------------------------------------
+    def prepare(self) -> RunResults:
+        """Create the run folder (or check that it holds this run) and read its results."""
+        if self._results is None:
+            self._results = self._prepare_folder()
+        return self._results
+
+    def _prepare_folder(self) -> RunResults:
+        config = self.plan.config(self.options)
+        root = self.folder.root
+        if self.folder.config.is_file():
+            self.folder.refuse_pickles()  # whatever the settings: a pickled checkpoint is never opened
+            saved = self.folder.read_config()
+            if self.folder.results.is_file():
+                self.folder.read_results()  # a damaged results.json is refused before anything is written
+            preset = {**LEGACY_PRESET, **saved.get("preset", {})}
+            changed = changed_keys({**saved, "preset": preset}, config, ignore=RUNTIME_KEYS)
+            if changed:
+                raise SettingsChanged(
+                    f"{root} holds a run with a different {changed[0]!r}; resume it with the same settings "
+                    "or choose a new run folder",
+                    changed=changed,
+                )
+            runtime = dict(config["runtime"])
+            earlier = saved.get("runtime", {}).get("machines", [])
+            keys = {m.get("numeric_key") for m in earlier}
+            runtime["machines"] = earlier + [
+                m for m in runtime["machines"] if m.get("numeric_key") not in keys
+            ]
+            write_json(self.folder.config, {**saved, "runtime": runtime})
+        else:
+            check_out_folder(root)
+            root.mkdir(parents=True, exist_ok=True)
+            write_json(self.folder.config, config)
+        if self.folder.results.is_file():
+            results = self.folder.read_results()
+        else:
+            tasks = [{k: t[k] for k in ("position", "name", "language")} for t in config["tasks"]]
+            results = RunResults.empty(tasks, self.eval_epochs)
+            write_json(self.folder.results, results.to_dict())
+        from libero_data.runtime.folder import WorkFolder
+
+        WorkFolder(self.folder.work, "run").clean("shards/*.tmp-*")  # an interrupted rollout write
+        return results
+
+    def _new_policy(self) -> Policy:
+        from libero_bench.policies import POLICIES, config_from_dict
+
+        config = config_from_dict(self.plan.policy_config)
+        return POLICIES.get(config.name).from_config(config).to(self.device)
+
+    def _new_algo(self) -> Algo:
+        from libero_bench.algos import ALGOS, algo_config_from_dict
+
+        config = algo_config_from_dict(self.plan.algo_config)
+        return ALGOS.get(config.name)(config)
+
+    def _save_checkpoint(self, task: int, stage: str, policy: Policy, algo: Algo) -> None:
+        save_checkpoint(
+            self.folder.checkpoint(task),
+            task=task,
+            stage=stage,
+            policy_config=self.plan.policy_config,
+            policy=policy,
+            algo=algo,
+        )
+
+    def _write_results(self, results: RunResults) -> None:
+        write_json(self.folder.results, results.to_dict())
+
+    def _loader(self, task_positions: Sequence[int], seed: int) -> TaskLoader:
+        return task_loader(
+            self.plan, task_positions, seed=seed, device=self.device, workers=self.options.loader_workers
+        )
+
+    def _fit_epoch(
+        self, algo: Algo, policy: Policy, loader: TaskLoader, optimiser: Any, label: str
+    ) -> dict[str, float]:
+        self.observer.train_start(label, len(loader))
+        return train_epoch(
+            algo, policy, loader, optimiser, self.preset.grad_clip, label, self.observer.train_step
+        )
+
+    # -- the protocol ------------------------------------------------------------------------------
+    def run(self) -> RunResults:
+        """Run or resume; returns the final results (also in ``results.json``)."""
+        seed_everything(run_seed(self.plan.seed, 0, WEIGHTS))  # the initial weights depend on the seed only
+        policy = self._new_policy()
+        algo = self._new_algo()
+        results = self.prepare()
+        self.folder.work.mkdir(parents=True, exist_ok=True)
+        with evaluate.Evaluator(
+            self.options.workers,
+            self.folder.root,
+            executor=self.options.executor,
+            ray_address=self.options.ray_address,
+        ) as evaluator:
+            self.rounds.evaluator = evaluator
+            try:
+                if self.plan.needs_all_tasks:
+                    self._run_multitask(results, policy, algo)
+                else:
+                    self._run_sequential(results, policy, algo)
+            finally:
+                self.rounds.evaluator = None
+        if not results.complete:
+            self.collect_rollouts(results)
+            results.complete = True
+            self._write_results(results)
+        elif not (self.folder.rollouts / "meta" / "info.json").is_file():
+            self.collect_rollouts(results)
+        return results
+
+    def _resume_point(self, results: RunResults, policy: Policy, algo: Algo, units: int) -> int:
+        """Load the newest checkpoint; returns the first unit (task) not done."""
+        done = results.finished_tasks
+        if done >= units:
+            return units
+        if results.stage[done] == "trained" and self.folder.checkpoint(done).is_file():
+            load_checkpoint(self.folder.checkpoint(done), policy, algo)
+            logger.info("resuming %s at the evaluations after task %d", self.folder.root, done)
+        elif done > 0:
+            load_checkpoint(self.folder.checkpoint(done - 1), policy, algo)
+            logger.info("resuming %s after task %d", self.folder.root, done - 1)
+        elif self.plan.request.init_checkpoint is not None:
+            self._initial_weights(policy)
+        return done
+
+    def _initial_weights(self, policy: Policy) -> None:
+        request = self.plan.request
+        assert request.init_checkpoint is not None
+        load_initial_weights(request.init_checkpoint, policy, self.device, request.policy)
+
+    def _run_sequential(self, results: RunResults, policy: Policy, algo: Algo) -> None:
+        start = self._resume_point(results, policy, algo, self.K)
+        for tau in range(start, self.K):
+            task = self.plan.tasks[tau]
+            self.observer.phase(f"task {tau + 1}/{self.K}: {task.language}")
+            if results.stage[tau] != "trained":
+                self._learn_task(results, policy, algo, tau)
+            # every earlier task, with the checkpoint kept after this one
+            if tau > 0:
+                rates = self.rounds.evaluate(
+                    results, algo, policy, list(range(tau)), phase=AFTER, learned_after=tau, epoch=None
+                )
+                for kind, values in rates.items():
+                    results.after_of(kind)[tau][:tau] = values
+            results.stage[tau] = "done"
+            self._write_results(results)
+
+    def _learn_task(self, results: RunResults, policy: Policy, algo: Algo, tau: int) -> None:
+        seed_everything(run_seed(self.plan.seed, tau, TASK_START))
+        algo.start_task(tau, policy)
+        loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, LOADER))
+        best = self._epochs(results, policy, algo, loader, [tau], learned_after=tau)
+        for start in STARTS:  # the kept checkpoint's success on the task it learned
+            results.after_of(start)[tau][tau] = results.kept_success(tau, start)
+        factory_loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, END_TASK_LOADER))
+        algo.end_task(tau, lambda: iter(factory_loader))
+        if algo.post_task_epochs > 0:
+            # the pruned network before fine-tuning (PackNet); not part of the learning curve
+            pruned = self.rounds.evaluate(
+                results, algo, policy, [tau], phase=PRUNED, learned_after=tau, epoch=None
+            )
+            for start, (rate,) in pruned.items():
+                results.pruned_of(start)[tau] = None if math.isnan(rate) else rate
+            results.post_losses[tau] = self._post_task(policy, algo, loader, tau)
+        logger.info("task %d kept the weights of epoch %s", tau, best)
+        self._save_checkpoint(tau, "trained", policy, algo)
+        self.folder.epoch_state(tau).unlink(missing_ok=True)
+        results.stage[tau] = "trained"
+        self._write_results(results)
+
+    def _epochs(
+        self,
+        results: RunResults,
+        policy: Policy,
+        algo: Algo,
+        loader: TaskLoader,
+        positions: list[int],
+        *,
+        learned_after: int,
+    ) -> int | None:
+        """Epoch 0..E with evaluations; loads the best weights; returns the kept epoch."""
+        p = self.preset
+        optimiser, scheduler = make_optimiser(policy, p, p.epochs)
+        best_rate = -math.inf
+        best_state: dict[str, Any] | None = None
+        best_epoch: int | None = None
+        losses: list[dict[str, float]] = []
+        name = self.plan.tasks[positions[0]].name if len(positions) == 1 else "all tasks"
+        state_path = self.folder.epoch_state(positions[0])
+        first = 0
+        saved = load_epoch_state(state_path, positions)
+        if saved is not None:  # an interrupted task: go on after its last finished epoch
+            first = saved["epoch"] + 1
+            best_rate, best_epoch, best_state, losses = (
+                saved[k] for k in ("best_rate", "best_epoch", "best_state", "losses")
+            )
+            _restore_training(saved, results, policy, algo, optimiser, scheduler)
+            logger.info("%s: resuming after epoch %d of %d", name, saved["epoch"], p.epochs)
+        for epoch in range(first, p.epochs + 1):
+            loader.set_epoch(epoch)
+            started = time.perf_counter()
+            label = f"{name}: epoch {epoch}/{p.epochs}"
+            if epoch == 0:
+                self.observer.train_start(label, len(loader))
+                terms = loss_epoch(policy, loader, self.observer.train_step)
+            else:
+                terms = self._fit_epoch(algo, policy, loader, optimiser, label)
+            losses.append({"epoch": epoch, **terms})
+            self.folder.append_timing(
+                {
+                    "what": "epoch",
+                    "label": label,
+                    "batches": len(loader),
+                    "seconds": round(time.perf_counter() - started, 3),
+                }
+            )
+            logger.info("%s: loss %.4f", label, terms["total"])
+            if epoch in self.eval_epochs:
+                e = self.eval_epochs.index(epoch)
+                rates = self.rounds.evaluate(
+                    results, algo, policy, positions, phase=LEARNING, learned_after=learned_after, epoch=epoch
+                )
+                for start, values in rates.items():
+                    for pos, rate in zip(positions, values, strict=True):
+                        results.curve_of(start)[pos][e] = rate
+                # Checkpoints are chosen on the stored starts (LIBERO's protocol); held-out
+                # starts take no part in the choice, so their success stays an unbiased estimate.
+                score = float(np.mean(rates[STORED]))
+                if p.keep_best and score > best_rate:  # the earliest best, as upstream LIBERO
+                    best_rate, best_epoch = score, epoch
+                    best_state = {k: v.detach().clone() for k, v in policy.state_dict().items()}
+            if scheduler is not None and epoch > 0:
+                scheduler.step()
+            save_epoch_state(
+                state_path,
+                {
+                    "positions": positions,
+                    "epoch": epoch,
+                    "policy": policy.state_dict(),
+                    "algo": algo.state_dict(),
+                    "optimiser": optimiser.state_dict(),
+                    "scheduler": scheduler.state_dict() if scheduler is not None else None,
+                    "best_rate": best_rate,
+                    "best_epoch": best_epoch,
+                    "best_state": best_state,
+                    "losses": losses,
+                    "results": results.to_dict(),
+                },
+            )
+        if not p.keep_best:
+            best_epoch = p.epochs  # keep the last weights
+        elif best_state is not None:
+            policy.load_state_dict(best_state)
+        for pos in positions:
+            results.losses[pos] = losses
+            results.best_epoch[pos] = best_epoch
+        return best_epoch
+
+    def _post_task(self, policy: Policy, algo: Algo, loader: TaskLoader, tau: int) -> list[dict[str, float]]:
+        epochs = algo.post_task_epochs
+        self.observer.phase(f"task {tau + 1}/{self.K}: {epochs} post-task epochs")
+        optimiser, scheduler = make_optimiser(policy, self.preset, epochs)
+        losses = []
+        for epoch in range(1, epochs + 1):
+            loader.set_epoch(self.preset.epochs + epoch)
+            label = f"{self.plan.tasks[tau].name}: post-task epoch {epoch}/{epochs}"
+            terms = self._fit_epoch(algo, policy, loader, optimiser, label)
+            losses.append({"epoch": epoch, **terms})
+            if scheduler is not None:
+                scheduler.step()
+        return losses
+
+    def _run_multitask(self, results: RunResults, policy: Policy, algo: Algo) -> None:
+        everything = list(range(self.K))
+        start = self._resume_point(results, policy, algo, 1)
+        if start >= 1:
+            return
+        self.observer.phase(f"multitask: {self.K} tasks at once")
+        if results.stage[0] != "trained":
+            seed_everything(run_seed(self.plan.seed, 0, TASK_START))
+            algo.start_task(0, policy)
+            loader = self._loader(everything, seed=run_seed(self.plan.seed, 0, LOADER))
+            best = self._epochs(results, policy, algo, loader, everything, learned_after=0)
+            factory_loader = self._loader(everything, seed=run_seed(self.plan.seed, 0, END_TASK_LOADER))
+            algo.end_task(0, lambda: iter(factory_loader))
+            self._save_checkpoint(0, "trained", policy, algo)
+            self.folder.epoch_state(0).unlink(missing_ok=True)
+            kept = self.eval_epochs.index(best) if best is not None else len(self.eval_epochs) - 1
+            for tau in range(self.K):
+                for k in range(self.K):
+                    for kind in STARTS:
+                        results.after_of(kind)[tau][k] = results.curve_of(kind)[k][kept]
+        results.stage = ["done"] * self.K
+        self._write_results(results)
+
+    # -- the rollout dataset -------------------------------------------------------------------------
+    def collect_rollouts(self, results: RunResults) -> None:
+        """Join every rollout of ``results`` into ``RUN/rollouts`` (one LeRobot dataset)."""
+        from libero_bench.evaluation.rollout_dataset import collect_run_rollouts
+
+        collect_run_rollouts(self.folder, self.plan, results, self.rounds.eval_tasks())
+
+
+def run_lifelong(
+    request: RunRequest,
+    out: str | Path,
+    options: RunOptions | None = None,
+    observer: RunObserver | None = None,
+) -> RunResults:
+    """Plan and run (or resume) a lifelong run into ``out``."""
+    plan = plan_run(request)
+    return Trainer(plan, Path(out), options, observer).run()
+
+
+def _restore_training(
+    saved: dict[str, Any], results: RunResults, policy: Policy, algo: Algo, optimiser: Any, scheduler: Any
+) -> None:
+    """Weights, algorithm state, optimiser, schedule, results and random streams as they were
+    after the saved epoch, so the task goes on as if it had not been interrupted."""
+    policy.load_state_dict(saved["policy"])
+    algo.load_state_dict(saved["algo"])
+    algo.bind(policy)
+    optimiser.load_state_dict(saved["optimiser"])
+    if scheduler is not None and saved["scheduler"] is not None:
+        scheduler.load_state_dict(saved["scheduler"])
+    vars(results).update(vars(RunResults.from_dict(saved["results"])))
+    restore_rng(saved["rng"])
