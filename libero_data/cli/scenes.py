@@ -71,7 +71,7 @@ def contact_sheet_cmd(
 def _kind_sheets(suite: str, kinds: str, index: int, out: Path, size: int, seed: int) -> None:
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS
-    from libero_data.perturb.sheet import kind_sheet
+    from libero_data.procedural.kind_sheet import kind_sheet
     from libero_data.tasks import get_suite
 
     chosen = list(KINDS) if kinds == "all" else split_list(kinds)

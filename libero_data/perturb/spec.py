@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from libero_data.errors import InputError
-from libero_data.perturb.levels import ENV_KINDS, magnitude
+from libero_data.perturb.levels import magnitude
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,8 @@ class Perturbation:
     params: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        from libero_data.perturb.levels import ENV_KINDS
+
         if self.kind not in ENV_KINDS:
             raise InputError(
                 f"unknown perturbation kind {self.kind!r}; known: {', '.join(ENV_KINDS)}", field="kinds"
@@ -79,64 +81,9 @@ def _short(value: Any) -> str:
 
 def sample(kind: str, level: int, seed: int) -> Perturbation:
     """Draw the concrete values of a ``kind`` perturbation at ``level`` (signs, hues, textures)."""
+    from libero_data.perturb.kinds import get_kind
+    from libero_data.perturb.levels import ENV_KINDS
+
     m = magnitude(kind, level)
     rng = np.random.default_rng([seed, level, ENV_KINDS.index(kind) if kind in ENV_KINDS else 99])
-    sign = lambda: float(rng.choice((-1.0, 1.0)))  # noqa: E731
-    params: dict[str, Any]
-    if kind == "camera":
-        params = {
-            "azimuth_deg": sign() * m["azimuth_deg"],
-            "elevation_deg": sign() * m["elevation_deg"],
-            "distance_scale": 1.0 + sign() * m["distance_change"],
-            "fovy_change_deg": sign() * m["fovy_change_deg"],
-        }
-    elif kind == "lighting":
-        hue = float(rng.uniform(0.0, 1.0))
-        params = {
-            "intensity": 1.0 + sign() * m["intensity_change"],
-            "tint_rgb": _tint(hue, m["tint"]),
-            "direction_deg": sign() * m["direction_deg"],
-            "shadows": bool(m["shadows"]),
-        }
-    elif kind == "texture":
-        params = {
-            "tints": {
-                part: _tint(float(rng.uniform()), m["tint"], brightness=sign() * m["tint"])
-                for part in m["tinted"]
-            },
-            "installed": {part: _installed(rng) for part in m["installed"]},
-            "generated": {part: _pattern(rng) for part in m["generated"]},
-        }
-    elif kind == "robot_init":
-        params = {"joint_offset_rad": float(m["joint_offset_rad"])}
-    else:  # noise
-        params = {k: (float(v) if isinstance(v, float) else int(v)) for k, v in m.items()}
-    return Perturbation(kind, level, seed, params)
-
-
-def _installed(rng: np.random.Generator) -> str:
-    """An installed texture image, by ``<package>/<file>`` (so a variant names what it shows)."""
-    from libero_data.perturb.textures import installed_textures
-
-    names = list(installed_textures())
-    if not names:
-        raise InputError("no installed texture images found (LIBERO's assets or robosuite's)", field="kinds")
-    return names[int(rng.integers(len(names)))]
-
-
-def _tint(hue: float, strength: float, brightness: float = 0.0) -> list[float]:
-    """An RGB multiplier: white moved ``strength`` toward the colour of ``hue``, scaled by 1 + brightness."""
-    import colorsys
-
-    r, g, b = colorsys.hsv_to_rgb(hue, 1.0, 1.0)
-    return [round((1.0 - strength + strength * c) * (1.0 + brightness), 4) for c in (r, g, b)]
-
-
-def _pattern(rng: np.random.Generator) -> dict[str, Any]:
-    """A generated texture: a pattern, two colours and a scale."""
-    return {
-        "pattern": str(rng.choice(["checker", "stripes", "noise", "gradient"])),
-        "colour_a": [round(float(v), 3) for v in rng.uniform(0.05, 0.95, 3)],
-        "colour_b": [round(float(v), 3) for v in rng.uniform(0.05, 0.95, 3)],
-        "cells": int(rng.integers(4, 17)),
-    }
+    return Perturbation(kind, level, seed, get_kind(kind).sample(m, rng))

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from libero_data.bddl import parse, write
+from libero_data.perturb.kinds.language import reword
 from libero_data.perturb.levels import ENV_KINDS, KINDS, MAGNITUDES, level_table, magnitude
 from libero_data.perturb.spec import Perturbation, sample
-from libero_data.procedural.variants import make_variant, reword
+from libero_data.procedural.variants import make_variant
 from libero_data.seeding import variant_level_rng
 from libero_data.tasks import get_task
 
@@ -105,7 +106,7 @@ def _project(env: Any, point: np.ndarray) -> np.ndarray:
 
 @pytest.mark.sim
 def test_scene_kinds_change_what_the_cameras_see_and_nothing_else(tmp_path: Path) -> None:
-    from libero_data.perturb.apply import surface_height
+    from libero_data.perturb.kinds.camera import surface_height
 
     task = get_task("libero_goal/0")
     init = task.init_states()[0]

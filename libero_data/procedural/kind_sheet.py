@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from libero_data.perturb.levels import ENV_KINDS, LEVELS
+from libero_data.perturb.kinds import get_kind
+from libero_data.perturb.levels import LEVELS
 
 
 def level_variants(task: Any, kind: str, seed: int = 0) -> list[tuple[int, Any, str]]:
@@ -55,7 +56,7 @@ def kind_sheet(task: Any, kind: str, out: str | Path, *, size: int = 128, seed: 
     from libero_data.perturb.spec import Perturbation
 
     variants = level_variants(task, kind, seed)
-    # Scenes that keep the source's layout start from its first stored state; the others
+    # Kinds that keep the source's layout start from its first stored state; the others
     # (layout, distractors, swap) from LIBERO's sampler, with the same seed.
     stored = task.init_states()[0] if task.init_states_path is not None else None
     fig, axes = plt.subplots(2, len(variants), figsize=(2.3 * len(variants), 5.4), squeeze=False)
@@ -68,7 +69,7 @@ def kind_sheet(task: Any, kind: str, out: str | Path, *, size: int = 128, seed: 
                 continue
             path = Path(tmp) / f"level{level}.bddl"
             path.write_text(write(problem))
-            keeps_layout = kind in ENV_KINDS or kind == "language" or level == 0
+            keeps_layout = get_kind(kind).keeps_layout or level == 0
             frames = _frames(path, stored if keeps_layout else None, size, seed)
             axes[0, col].imshow(frames["agentview"])
             axes[1, col].imshow(frames["eye_in_hand"])
