@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from libero_data.config import Config
 from libero_data.experts.motion import Motion, Style
 from libero_data.experts.planner import Step, plan
 from libero_data.experts.scene import SceneView
@@ -31,7 +32,7 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ExpertConfig:
+class ExpertConfig(Config):
     """Limits and the ranges that per-episode styles are drawn from."""
 
     max_steps: int = 1000  # two-object libero_10 tasks take up to ~700 steps

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
+from libero_data.config import Config
 from libero_data.errors import BDDLError, InputError, MissingFileError, SceneError
 from libero_data.sim.arm import ARM_INIT_NOISE, check_arm_noise, jitter_arm
 from libero_data.sim.gl import select_backend
@@ -46,7 +47,7 @@ def check_render_quality(value: str) -> None:
 
 
 @dataclass(frozen=True)
-class EnvConfig:
+class EnvConfig(Config):
     """How an environment is built.
 
     ``cameras`` may be empty: no renderer is created and stepping costs physics only, which
