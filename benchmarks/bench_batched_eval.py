@@ -139,13 +139,14 @@ def measure(
             seconds = time.perf_counter() - start
             pids = runner.worker_pids()
             rss = [status_mib(pid, "VmRSS") for pid in [os.getpid(), *pids]]
-        copies = len(pids)
+        copies = max(len(pids), 1)  # one worker: this process holds the copy
     else:
         from libero_bench.rollouts.lerobot_actor import LeRobotActor
         from libero_bench.rollouts.loop import Execution
+        from libero_data.runtime.jobs import Executor
 
         actor = LeRobotActor(folder, "cpu")
-        with Execution(workers=workers, batch_size=envs).open(work) as environments:
+        with Execution(Executor("local", workers), batch_size=envs).open(work) as environments:
             list(environments.run(actor, warm))
             start = time.perf_counter()
             results = [r for _, r in environments.run(actor, timed)]

@@ -81,6 +81,7 @@ def rate(
     """(rollouts per minute, peak MiB of each worker); ``render_threads`` sets llvmpipe's
     thread count in the new workers (None: Mesa's default, one per core)."""
     from libero_bench.evaluation.evaluator import Evaluator
+    from libero_data.runtime.jobs import Executor
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
     policy = _policy(size)
@@ -88,7 +89,7 @@ def rate(
     if render_threads is not None:
         os.environ["LP_NUM_THREADS"] = str(render_threads)  # read by each worker as it starts
     try:
-        with Evaluator(workers, work) as evaluator:
+        with Evaluator(Executor("local", workers), work) as evaluator:
             evaluator.run(
                 policy, rollout_jobs(task_ref, workers, size, max_steps, work / "warm")
             )  # start + warm up
@@ -110,12 +111,13 @@ def rate(
 def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> list[float]:
     """Resident MiB of one worker after each of ``rollouts`` rollouts."""
     from libero_bench.evaluation.evaluator import Evaluator
+    from libero_data.runtime.jobs import Executor
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-mem-"))
     policy = _policy(size)
     trace = []
     try:
-        with Evaluator(1, work) as evaluator:
+        with Evaluator(Executor("local", 1), work) as evaluator:
             for r in range(rollouts):
                 evaluator.run(policy, rollout_jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
                 (pid,) = evaluator.worker_pids()

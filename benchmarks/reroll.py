@@ -34,6 +34,7 @@ def reroll(
     from libero_bench.runs.summary import load_run
     from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
     from libero_bench.train.plan import resolve_eval_task
+    from libero_data.runtime.jobs import Executor
 
     summary = load_run(run)
     config = summary.config
@@ -78,7 +79,7 @@ def reroll(
                             )
                         )
                 started = time.perf_counter()
-                with Evaluator(workers, Path(tmp) / f"{i}-{position}") as evaluator:
+                with Evaluator(Executor("local", workers), Path(tmp) / f"{i}-{position}") as evaluator:
                     results = evaluator.run(policy, jobs)
                 seconds[name] = seconds.get(name, 0.0) + time.perf_counter() - started
                 for job, result in zip(jobs, results, strict=True):

@@ -22,8 +22,9 @@ EnvWorkers = Annotated[
     typer.Option(
         "--workers",
         "-w",
-        help="Worker processes that step the environments (physics and rendering); 0: in this process.",
-        min=0,
+        help="Processes that step the environments (physics and rendering): 1 steps them in this process, "
+        "N >= 2 in N worker processes (as --workers everywhere).",
+        min=1,
     ),
 ]
 BatchSize = Annotated[

@@ -89,6 +89,7 @@ def eval_cmd(
     from libero_bench.rollouts.loop import Execution
     from libero_bench.rollouts.sources import policy_source
     from libero_data.errors import InputError
+    from libero_data.runtime.jobs import Executor
     from libero_data.tasks.horizons import parse_step_limit
 
     if not tasks:
@@ -105,7 +106,7 @@ def eval_cmd(
         image_size=image_size,
         replan_steps=replan_steps,
     )
-    execution = Execution(workers, batch_size, executor, ray_address, device)
+    execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
     source = policy_source(request.policy, request.image_size, request.replan_steps)  # before any output
     with rollout_progress() as (done, total):
         summary = evaluate_policy(

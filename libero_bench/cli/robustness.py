@@ -91,6 +91,7 @@ def robustness_cmd(
     from libero_bench.rollouts.loop import Execution
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS
+    from libero_data.runtime.jobs import Executor
     from libero_data.tasks.horizons import parse_step_limit
 
     if not tasks:
@@ -114,7 +115,7 @@ def robustness_cmd(
         image_size=image_size,
         replan_steps=replan_steps,
     )
-    execution = Execution(workers, batch_size, executor, ray_address, device)
+    execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
     from libero_bench.rollouts.sources import check_policy
 
     check_policy(reference, image_size, replan_steps)  # one sentence before any output

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from libero_bench.cli.options import EnvWorkers
 from libero_data.cli.common import (
     ExecutorKind,
     RayAddress,
@@ -89,9 +90,7 @@ def run_cmd(
     device: Annotated[
         str, typer.Option("--device", help="cpu or cuda: training, and the policy in evaluation rounds.")
     ] = "cpu",
-    workers: Annotated[
-        int, typer.Option("--workers", help="Rollout worker processes (0: in this process).", min=0)
-    ] = 1,
+    workers: EnvWorkers = 1,
     loader_workers: Annotated[
         int, typer.Option("--loader-workers", help="DataLoader worker processes.", min=0)
     ] = 0,
@@ -116,8 +115,8 @@ def run_cmd(
     from libero_data.runtime.jobs import Executor
     from libero_data.runtime.memory import limit_malloc_arenas
 
-    limit_malloc_arenas()  # rollouts run in this process with --workers 0
-    Executor(executor, workers, ray_address)  # checked before any work
+    limit_malloc_arenas()  # rollouts run in this process with --workers 1
+    runner = Executor(executor, workers, ray_address)  # checked before any work
     quality = [f"eval_render_quality={render_quality}"] if render_quality is not None else []
     chosen = get_preset(preset).with_overrides([*(overrides or []), *quality])
     check_device(device)
@@ -137,14 +136,7 @@ def run_cmd(
     )
     with console().status("reading the dataset and embedding the tasks"):
         plan = plan_run(request)
-    options = RunOptions(
-        device=device,
-        workers=workers,
-        loader_workers=loader_workers,
-        threads=threads,
-        executor=executor,
-        ray_address=ray_address,
-    )
+    options = RunOptions(device=device, executor=runner, loader_workers=loader_workers, threads=threads)
     trainer = Trainer(plan, out, options)
     started = time.perf_counter()
     trainer.prepare()

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from libero_bench.policies import Policy
     from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
+    from libero_data.runtime.jobs import Executor
 
 
 class Evaluator:
@@ -28,19 +29,11 @@ class Evaluator:
     pass per control step (:mod:`libero_bench.rollouts`). A context manager: the workers keep
     their imports and environments between evaluation rounds."""
 
-    def __init__(
-        self,
-        workers: int,
-        root: Path,
-        *,
-        executor: str = "local",
-        ray_address: str | None = None,
-        batch_size: int | None = None,
-    ) -> None:
+    def __init__(self, executor: Executor, root: Path, *, batch_size: int | None = None) -> None:
         from libero_bench.rollouts.loop import Execution
 
         self.root = Path(root)
-        self.environments = Execution(workers, batch_size, executor, ray_address).open(self.root)
+        self.environments = Execution(executor, batch_size).open(self.root)
 
     def __enter__(self) -> Evaluator:
         return self

@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 from collections import deque
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,21 +35,18 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Execution:
-    """How an evaluation runs: ``workers`` processes hosting the environments (0: this process)
-    or Ray actors (``executor="ray"``, on the cluster at ``ray_address`` or one started here),
-    ``batch_size`` environments at once (default: one per worker), the policy on ``device``
-    (default: cuda where available, then mps, else cpu)."""
+    """How an evaluation runs: where the environments step (an
+    :class:`~libero_data.runtime.jobs.Executor`: this process, ``workers`` worker processes, or
+    Ray actors), ``batch_size`` environments at once (default: one per worker), the policy on
+    ``device`` (default: cuda where available, then mps, else cpu)."""
 
-    workers: int = 1
+    executor: Executor = field(default_factory=Executor)
     batch_size: int | None = None
-    executor: str = "local"
-    ray_address: str | None = None
     device: str | None = None
 
     def __post_init__(self) -> None:
         from libero_data.errors import InputError
 
-        Executor(self.executor, self.workers, self.ray_address)  # validates the three
         if self.batch_size is not None and self.batch_size < 1:
             raise InputError(f"the batch size must be at least 1, got {self.batch_size}", field="batch_size")
         if self.device is not None and self.device.split(":")[0] not in ("cpu", "cuda", "mps"):
@@ -58,7 +55,7 @@ class Execution:
     @property
     def environments(self) -> int:
         """How many environments run at once (the policy's batch)."""
-        return self.batch_size or max(self.workers, 1)
+        return self.batch_size or self.executor.workers
 
     def policy_device(self) -> str:
         from libero_bench.rollouts.actors import default_device
@@ -67,7 +64,7 @@ class Execution:
 
     def open(self, root: Path) -> Environments:
         """The environments, under ``root`` (a context manager)."""
-        return Environments(Executor(self.executor, self.workers, self.ray_address), root, self.environments)
+        return Environments(self.executor, root, self.environments)
 
 
 class Environments:
@@ -77,8 +74,10 @@ class Environments:
     def __init__(self, executor: Executor, root: Path, batch_size: int) -> None:
         if batch_size < 1:
             raise ValueError(f"batch_size must be at least 1, got {batch_size}")
-        workers = min(executor.workers, batch_size) if executor.kind == "local" else executor.workers
-        self.executor = Executor(executor.kind, workers, executor.ray_address)
+        # never more local worker processes than environments
+        self.executor = (
+            executor.with_workers(min(executor.workers, batch_size)) if executor.kind == "local" else executor
+        )
         self.root = Path(root)
         self.batch_size = batch_size
         self._pool: ActorPool | None = None

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,6 +18,7 @@ from libero_bench.runs.folder import RUN_FORMAT, RunFolder
 from libero_bench.train.presets import TrainPreset
 from libero_data.errors import FolderError, InputError, MissingFileError, UnknownNameError
 from libero_data.numerics import machine_fingerprint
+from libero_data.runtime.jobs import Executor
 from libero_data.sim.arm import ARM_INIT_NOISE
 
 if TYPE_CHECKING:
@@ -51,11 +52,11 @@ class RunOptions:
     """How to run it (free to change when resuming)."""
 
     device: str = "cpu"
-    workers: int = 1  # rollout worker processes; 0 = in this process
-    loader_workers: int = 0  # DataLoader worker processes
+    executor: Executor = field(
+        default_factory=Executor
+    )  # where the evaluation rollouts step (libero_data.runtime.jobs)
+    loader_workers: int = 0  # DataLoader worker processes (PyTorch's meaning: 0 is this process)
     threads: int = 1  # torch threads of the training process (last-bit differences follow it)
-    executor: str = "local"  # rollouts in local processes or on Ray ("ray")
-    ray_address: str | None = None  # a Ray cluster to join; None: start Ray here
 
 
 def select_tasks(source: DemoDataset, tasks: Sequence[str] | None, order: int | None) -> list[DemoTask]:
@@ -162,9 +163,9 @@ class RunPlan:
             **({"mix": self.mix.config(self.tasks)} if self.mix is not None else {}),
             "runtime": {
                 "device": options.device,
-                "workers": options.workers,
+                "workers": options.executor.workers,
                 "threads": options.threads,
-                "executor": options.executor,
+                "executor": options.executor.kind,
                 "versions": versions(python=True),
                 # The numeric path of the machines that worked on the run (a resumed run adds its
                 # own): rollouts replay bit for bit only on the same one (libero_data.numerics).

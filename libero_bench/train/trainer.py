@@ -198,12 +198,7 @@ class Trainer:
         algo = self._new_algo()
         results = self.prepare()
         self.folder.work.mkdir(parents=True, exist_ok=True)
-        with evaluate.Evaluator(
-            self.options.workers,
-            self.folder.root,
-            executor=self.options.executor,
-            ray_address=self.options.ray_address,
-        ) as evaluator:
+        with evaluate.Evaluator(self.options.executor, self.folder.root) as evaluator:
             self.rounds.evaluator = evaluator
             try:
                 if self.plan.needs_all_tasks:

@@ -196,7 +196,14 @@ def rollout_progress() -> Iterator[tuple[Callable[[Any], None], Callable[[int], 
 
 # -- options several commands take ------------------------------------------------------------------
 Workers = Annotated[
-    int, typer.Option("--workers", "-w", help="Parallel worker processes (simulation and rendering).", min=1)
+    int,
+    typer.Option(
+        "--workers",
+        "-w",
+        help="Processes that do the work (simulation and rendering): 1 works in this process, N >= 2 in N "
+        "worker processes (as --workers everywhere).",
+        min=1,
+    ),
 ]
 Seed = Annotated[int, typer.Option("--seed", help="Seed of everything random; same seed, same result.")]
 ExecutorKind = Annotated[

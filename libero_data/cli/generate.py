@@ -205,7 +205,7 @@ def generate_cmd(
 
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
     limit_malloc_arenas()  # with --workers 1 this process renders and writes every episode
-    runner = Executor.processes(workers, executor, ray_address)  # checked before any work
+    runner = Executor(executor, workers, ray_address)  # checked before any work
     task_refs = split_list(tasks)
     _check_combination(suite, task_refs, procedural, variants_of, scene, template, kinds or level, tasks_only)
     if procedural is not None or variants_of is not None:

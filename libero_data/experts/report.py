@@ -203,7 +203,7 @@ def run_report(
     config = config or ExpertConfig()
     jobs = [_TaskJob(ref, inits, seed, config, fingerprint or expert_code()) for ref in refs]
     results: dict[str, TaskResult] = {}
-    with JobRunner(Executor.processes(workers)) as runner:
+    with JobRunner(Executor("local", workers)) as runner:
         for i, result in runner.run(_measure, jobs):
             results[refs[i]] = result
             if on_task:

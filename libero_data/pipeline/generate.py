@@ -259,7 +259,7 @@ def generate(
     """
     from libero_data.pipeline.publish import recover, unstamp
 
-    runner_executor = Executor.processes(workers, executor, ray_address)
+    runner_executor = Executor(executor, workers, ray_address)
     out = Path(out).resolve()
     done = check_output(request, out)
     if done is not None:

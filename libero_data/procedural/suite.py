@@ -166,7 +166,7 @@ def make_suite(
     for v in verdicts.values():
         if on_verdict:
             on_verdict(v)
-    with JobRunner(executor or Executor.processes(workers), folder.root) as runner:
+    with JobRunner(executor or Executor("local", workers), folder.root) as runner:
         for j, (verdict, found) in runner.run(_check, jobs):
             i = jobs[j].index
             task = candidates[i][0]

@@ -6,7 +6,7 @@ the policy, every worker keeps simulation environments, and each control step th
 the actions and gathers the observations. An :class:`ActorPool` is that shape:
 
 - ``ActorPool(executor, root, factory)`` starts ``executor.workers`` workers (worker processes, or
-  Ray actors with one CPU each; ``workers=0``: one actor in this process), and each builds its
+  Ray actors with one CPU each; one local worker: one actor in this process), and each builds its
   object with ``factory(ctx)`` (a module-level function; ``ctx`` is a
   :class:`~libero_data.runtime.jobs.WorkerContext` whose cache lives as long as the worker);
 - ``pool.call({actor: (method, args)})`` calls those methods on those actors at once and returns
@@ -135,7 +135,7 @@ class ActorPool:
         self._ray_started = False
         if executor.kind == "ray":
             self._start_ray(factory, setup)
-        elif executor.workers == 0:
+        elif executor.in_process:
             self._cache = WorkerCache()
             self._here = factory(WorkerContext(self.root, self._cache, None, lambda _event: None))
         else:

@@ -54,11 +54,15 @@ EXECUTORS = ("local", "ray")
 
 @dataclass(frozen=True)
 class Executor:
-    """Where jobs run: ``local`` with ``workers`` processes (0: in this process), or ``ray``
-    with ``workers`` CPUs of a Ray instance started here, or the cluster at ``ray_address``."""
+    """Where jobs run: ``local`` in ``workers`` processes, or ``ray`` with ``workers`` CPUs of a
+    Ray instance started here (or of the cluster at ``ray_address``).
+
+    ``--workers N`` means the same in every command: N processes do the work, and 1 is this
+    process (no worker is started); from 2 on, N worker processes are started.
+    """
 
     kind: str = "local"
-    workers: int = 0
+    workers: int = 1
     ray_address: str | None = None
 
     def __post_init__(self) -> None:
@@ -68,19 +72,24 @@ class Executor:
             )
         if self.ray_address and self.kind != "ray":
             raise ExecutorError("a Ray address needs the Ray executor", field="ray_address")
-        if self.workers < 0:
-            raise ExecutorError(f"workers must be 0 or more, got {self.workers}", field="workers")
+        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
+            raise ExecutorError(
+                f"workers must be 1 (this process) or more (worker processes), got {self.workers}",
+                field="workers",
+            )
 
-    @classmethod
-    def processes(cls, workers: int, kind: str = "local", ray_address: str | None = None) -> Executor:
-        """The executor of a command whose ``--workers N`` means N processes, one of them this one:
-        ``N <= 1`` runs in this process."""
-        return cls(kind, workers if kind == "ray" or workers > 1 else 0, ray_address)
+    @property
+    def in_process(self) -> bool:
+        """Whether the work runs in this process (local, one worker)."""
+        return self.kind == "local" and self.workers == 1
+
+    def with_workers(self, workers: int) -> Executor:
+        return Executor(self.kind, workers, self.ray_address)
 
     def describe(self) -> str:
         if self.kind == "ray":
             return f"on Ray ({self.ray_address})" if self.ray_address else f"on Ray ({self.workers} CPUs)"
-        return f"with {self.workers} worker process(es)" if self.workers else "in this process"
+        return "in this process" if self.in_process else f"with {self.workers} worker processes"
 
 
 class WorkerCache:
@@ -296,7 +305,7 @@ class JobRunner:
             return iter(())
         if self.executor.kind == "ray":
             return self._run_ray(fn, payloads, shared, emit)
-        if self.executor.workers == 0:
+        if self.executor.in_process:
             return self._run_here(fn, payloads, shared, emit)
         return self._run_processes(fn, payloads, shared, emit)
 

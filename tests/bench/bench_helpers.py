@@ -74,5 +74,5 @@ def make_run(data: Path, out: Path) -> Path:
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(evaluate, "Evaluator", Succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
-        Trainer(plan_run(run_request(data)), out, RunOptions(workers=0)).run()
+        Trainer(plan_run(run_request(data)), out, RunOptions()).run()
     return out

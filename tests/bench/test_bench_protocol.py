@@ -74,7 +74,7 @@ def scripted(monkeypatch: pytest.MonkeyPatch) -> type[ScriptedEvaluator]:
 
 def _trainer(data: Path, out: Path, algo: str) -> Trainer:
     plan = plan_run(RunRequest(data=data, algo=algo, policy="resnet_t", preset=PRESET))
-    return Trainer(plan, out, RunOptions(workers=0))
+    return Trainer(plan, out, RunOptions())
 
 
 @pytest.mark.parametrize("algo", ALGOS.names())
@@ -161,10 +161,10 @@ def test_a_run_starts_from_another_runs_weights(tiny_dataset: Path, tmp_path: Pa
     request = RunRequest(
         data=tiny_dataset, algo="seql", policy="resnet_t", preset=PRESET, init_checkpoint=weights
     )
-    Trainer(plan_run(request), tmp_path / "seql", RunOptions(workers=0)).run()
+    Trainer(plan_run(request), tmp_path / "seql", RunOptions()).run()
     first = scripted.calls[0]  # epoch 0 of the first task: before any training
     assert (first["phase"], first["epoch"]) == ("learning", 0)
     assert first["digest"] == pytest.approx(digest, rel=1e-12)
     other = RunRequest(data=tiny_dataset, algo="seql", policy="vit_t", preset=PRESET, init_checkpoint=weights)
     with pytest.raises(ValueError, match="does not fit the vit_t policy"):
-        Trainer(plan_run(other), tmp_path / "vit", RunOptions(workers=0)).run()
+        Trainer(plan_run(other), tmp_path / "vit", RunOptions()).run()

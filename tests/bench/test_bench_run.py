@@ -425,7 +425,7 @@ def test_a_task_interrupted_between_epochs_goes_on_after_its_last_finished_epoch
 ) -> None:
     import torch
 
-    args = ["--data", str(tiny_dataset), *RUN_ARGS, "--set", "epochs=3", "--tasks", "0", "--workers", "0"]
+    args = ["--data", str(tiny_dataset), *RUN_ARGS, "--set", "epochs=3", "--tasks", "0", "--workers", "1"]
     reference = tmp_path / "reference"
     assert bench("run", *args, "--out", str(reference)).returncode == 0
     out = tmp_path / "interrupted"

@@ -133,7 +133,7 @@ def test_a_mixed_run_records_its_mix(tiny_dataset: Path, variants: Path, tmp_pat
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(evaluate, "Evaluator", Succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
-        Trainer(_plan(tiny_dataset, variants, tasks=("7",)), out, RunOptions(workers=0)).run()
+        Trainer(_plan(tiny_dataset, variants, tasks=("7",)), out, RunOptions()).run()
     config = read_json(out / "config.json")
     assert config["mix"]["weight"] == 0.25
     assert config["mix"]["datasets"][0]["data"] == str(variants.resolve())
@@ -144,7 +144,7 @@ def test_a_mixed_run_records_its_mix(tiny_dataset: Path, variants: Path, tmp_pat
     from libero_data.errors import SettingsChanged
 
     with pytest.raises(SettingsChanged, match="'mix'"):
-        Trainer(_plan(tiny_dataset, variants, 0.5, tasks=("7",)), out, RunOptions(workers=0)).prepare()
+        Trainer(_plan(tiny_dataset, variants, 0.5, tasks=("7",)), out, RunOptions()).prepare()
 
 
 def test_bad_mixes_are_refused(tiny_dataset: Path, variants: Path) -> None:

@@ -84,7 +84,7 @@ def test_one_batched_pass_per_step_and_the_same_starts_with_batch_sizes_1_and_3(
         root = tmp_path / f"b{batch}"
         jobs = jobs_of(root)
         actor = CountingActor(policy)
-        with Execution(workers=0, batch_size=batch).open(root) as environments:
+        with Execution(batch_size=batch).open(root) as environments:
             results = dict(environments.run(actor, jobs))
         assert sorted(results) == [0, 1, 2, 3] and all(r.steps == STEPS for r in results.values())
         # One call, one forward pass, per control step, over every environment then running.

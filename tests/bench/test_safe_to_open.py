@@ -200,7 +200,7 @@ def test_an_earlier_runs_pickles_are_migrated(er_run: Path, tiny_dataset: Path, 
         torch.save(originals[path.name], path.with_suffix(".pt"))  # what the earlier writer made
         path.unlink()
     assert set(originals) == {"task_000.safetensors", "task_001.safetensors"}
-    trainer = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions(workers=0))
+    trainer = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions())
     with pytest.raises(CheckpointError, match=r"holds pickled checkpoints \(task_000.pt, task_001.pt\)"):
         trainer.prepare()
     converted = migrate(run)
@@ -213,7 +213,7 @@ def test_an_earlier_runs_pickles_are_migrated(er_run: Path, tiny_dataset: Path, 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(evaluate, "Evaluator", Succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
-        again = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions(workers=0)).run()
+        again = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions()).run()
     assert again.complete
 
 

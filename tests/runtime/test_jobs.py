@@ -11,7 +11,7 @@ from libero_data.runtime.jobs import Executor, JobRunner, WorkerCache
 from tests.runtime.jobs_for_tests import count_and_report, fail_on_three
 
 
-@pytest.mark.parametrize("workers", [0, 2])
+@pytest.mark.parametrize("workers", [1, 2])
 def test_results_events_files_and_caches(workers: int, tmp_path: Path) -> None:
     shared = tmp_path / "shared.txt"
     shared.write_text("x" * 10)
@@ -30,8 +30,8 @@ def test_results_events_files_and_caches(workers: int, tmp_path: Path) -> None:
     # A worker's cache outlives its jobs: four jobs, at most `workers` (or one) builds.
     builds = {r["pid"] for r in seen.values()}
     assert sum(r["uses"] for r in seen.values() if r["uses"] == 1) == len(builds)
-    assert len(builds) <= max(workers, 1)
-    assert len(pids) == workers
+    assert len(builds) <= workers
+    assert len(pids) == (0 if workers == 1 else workers)
 
 
 def test_a_failing_job_raises_in_the_driver(tmp_path: Path) -> None:
@@ -54,8 +54,11 @@ def test_executor_choices_are_checked() -> None:
     with pytest.raises(ExecutorError) as lonely:
         Executor("local", 2, ray_address="auto")
     assert lonely.value.field == "ray_address"
-    assert Executor.processes(1).workers == 0  # one process: this one
-    assert Executor.processes(3).workers == 3
+    with pytest.raises(ExecutorError, match="1 \\(this process\\) or more") as none:
+        Executor("local", 0)
+    assert none.value.field == "workers"
+    assert Executor("local", 1).in_process and Executor().in_process  # one process: this one
+    assert not Executor("local", 3).in_process and not Executor("ray", 1).in_process
 
 
 def test_worker_cache_rebuilds_on_a_new_key_and_closes_the_old_value() -> None:
