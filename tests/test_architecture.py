@@ -190,3 +190,45 @@ def test_nothing_we_open_is_unpickled() -> None:
             if found and not allowed:
                 offenders.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()}")
     assert offenders == []
+
+
+#: class names that say "this is a config" (settings a user or a file gives)
+CONFIG_SUFFIXES = ("Config", "Request", "Options", "Settings", "Preset")
+
+
+def test_every_config_is_on_the_config_base() -> None:
+    bases: dict[str, list[str]] = {}
+    for path in MODULES.values():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                bases[node.name] = [
+                    b.id if isinstance(b, ast.Name) else getattr(b, "attr", "") for b in node.bases
+                ]
+
+    def on_base(name: str, seen: frozenset[str] = frozenset()) -> bool:
+        if name == "Config":
+            return True
+        return any(on_base(b, seen | {name}) for b in bases.get(name, []) if b not in seen)
+
+    outside = sorted(n for n in bases if n.endswith(CONFIG_SUFFIXES) and n != "Config" and not on_base(n))
+    assert outside == []
+
+
+def test_registered_configs_need_no_torch() -> None:
+    """Policies, algorithms and robustness kinds are found through their configs, which load
+    without torch (the models load when one is built)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from libero_bench.policies import policy_names, policy_config\n"
+        "from libero_bench.algos import algo_names, algo_config\n"
+        "from libero_data.perturb.kinds import all_kinds\n"
+        "assert policy_names() and algo_names() and all_kinds()\n"
+        "[policy_config(n, 'smoke') for n in policy_names()]\n"
+        "[algo_config(n, 'smoke') for n in algo_names()]\n"
+        "print('torch' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "False"

@@ -1,11 +1,11 @@
-"""The lifelong-learning algorithm interface and the ``ALGOS`` registry.
+"""The lifelong-learning algorithm interface and the ``ALGO_CONFIGS`` registry.
 
 An algorithm is a small override of how a policy is trained across tasks; the trainer owns
 the optimiser, the data and the evaluation. The protocol the trainer follows:
 
 .. code-block:: python
 
-    algo = ALGOS.get(name)(config)            # or .from_config(config)
+    algo = build_algo(config)                 # libero_bench.algos
     for k in range(K):                        # algo.needs_all_tasks: once, on all tasks' data
         algo.start_task(k, policy)
         optimiser = AdamW(policy.parameters(), ...)      # fresh per task
@@ -33,31 +33,37 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, Self
+from typing import TYPE_CHECKING, Any, ClassVar, Self
 
-from torch import Tensor
-
-from libero_bench.policies.base import Policy
+from libero_bench.sizes import Sized
 from libero_data.config import Config
 from libero_data.registry import Registry
 
+if TYPE_CHECKING:
+    from torch import Tensor
+
+    from libero_bench.policies.base import Policy
+
+
 logger = logging.getLogger(__name__)
 
-Batch = Mapping[str, Tensor]
+Batch = Mapping[str, "Tensor"]
 DataloaderFactory = Callable[[], Iterable[Batch]]
 """Called with no arguments, gives one pass over a task's training batches."""
 
 
 @dataclass(frozen=True)
-class AlgoConfig(Config):
-    """Base of the algorithm configs (on the project's one config base)."""
+class AlgoConfig(Sized, Config):
+    """Base of the algorithm configs (on the project's one config base); ``sizes`` lists what
+    the ``smoke`` (tiny CPU runs) and ``quick`` sizes change (:mod:`libero_bench.sizes`)."""
 
     name: ClassVar[str] = ""
+    #: where the algorithm is, ``module:Class`` (imported by ``libero_bench.algos.build_algo``)
+    algorithm: ClassVar[str] = ""
 
-    @classmethod
-    def smoke(cls) -> Self:
-        """Settings for tiny CPU runs (the paper's by default)."""
-        return cls()
+
+#: Every algorithm's config, by name: each algorithm's module registers its own (no torch needed).
+ALGO_CONFIGS: Registry[type[AlgoConfig]] = Registry("lifelong algorithm")
 
 
 class Algo:
@@ -125,6 +131,3 @@ class Algo:
         if saved is not None and saved != self.config.to_dict():
             logger.warning("loading %s state saved with a different config: %s", type(self).__name__, saved)
         self.task_index = int(state["task_index"])
-
-
-ALGOS: Registry[type[Algo]] = Registry("lifelong algorithm")

@@ -16,21 +16,26 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-import torch
-from torch import Tensor
 
-from libero_bench.algos.base import ALGOS, Algo, AlgoConfig, Batch, DataloaderFactory
+from libero_bench.algos.base import ALGO_CONFIGS, Algo, AlgoConfig, Batch, DataloaderFactory
 from libero_bench.data.batch_keys import IMAGE_KEYS
+
+if TYPE_CHECKING:
+    import torch
+    from torch import Tensor
+
 
 logger = logging.getLogger(__name__)
 
-Memory = dict[str, Tensor]
+Memory = dict[str, "Tensor"]
 
 
 def _encode(key: str, value: Tensor, quantise: bool) -> Tensor:
+    import torch
+
     value = value.detach().cpu()
     if quantise and key in IMAGE_KEYS and value.is_floating_point():
         return (value.clamp(0, 1) * 255.0).round().to(torch.uint8)
@@ -38,14 +43,19 @@ def _encode(key: str, value: Tensor, quantise: bool) -> Tensor:
 
 
 def _decode(key: str, value: Tensor) -> Tensor:
+    import torch
+
     if key in IMAGE_KEYS and value.dtype == torch.uint8:
         return value.float() / 255.0
     return value
 
 
+@ALGO_CONFIGS.register("er")
 @dataclass(frozen=True)
 class ERConfig(AlgoConfig):
     name: ClassVar[str] = "er"
+    algorithm: ClassVar[str] = "libero_bench.algos.er:ER"
+    sizes: ClassVar[dict[str, dict[str, Any]]] = {"smoke": {"memory_size": 64}}
 
     memory_size: int = 1000
     replay_batch_size: int | None = None  # None: the size of the current batch
@@ -58,12 +68,7 @@ class ERConfig(AlgoConfig):
         if self.replay_batch_size is not None and self.replay_batch_size <= 0:
             self._fail("replay_batch_size", "must be positive or None")
 
-    @classmethod
-    def smoke(cls) -> ERConfig:
-        return cls(memory_size=64)
 
-
-@ALGOS.register("er")
 class ER(Algo):
     config_class = ERConfig
     config: ERConfig
@@ -80,6 +85,8 @@ class ER(Algo):
 
     def _fill(self, dataloader_factory: DataloaderFactory, capacity: int) -> Memory:
         """Reservoir-sample ``capacity`` windows from one pass over the batches."""
+        import torch
+
         slots: list[dict[str, Tensor]] = []
         seen = 0
         quantise = self.config.quantise_images
@@ -97,6 +104,8 @@ class ER(Algo):
         return {k: torch.stack([slot[k] for slot in slots]) for k in slots[0]}
 
     def end_task(self, task_index: int, dataloader_factory: DataloaderFactory) -> None:
+        import torch
+
         super().end_task(task_index, dataloader_factory)
         share = self.config.memory_size // (len(self.memories) + 1)
         if share == 0:
@@ -112,6 +121,8 @@ class ER(Algo):
 
     def replay_batch(self, size: int, device: torch.device) -> dict[str, Tensor]:
         """``size`` windows drawn uniformly (with replacement) from the whole memory."""
+        import torch
+
         memories = list(self.memories.values())
         lengths = np.array([_length(m) for m in memories])
         picks = self.rng.integers(0, lengths.sum(), size=size)
@@ -127,6 +138,8 @@ class ER(Algo):
 
     # -- training ---------------------------------------------------------------------------
     def loss(self, batch: Batch) -> dict[str, Tensor]:
+        import torch
+
         if not self.memories:
             return super().loss(batch)
         current = dict(batch)

@@ -12,20 +12,25 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
-import torch
-from torch import Tensor
+from libero_bench.algos.base import ALGO_CONFIGS, Algo, AlgoConfig, Batch, DataloaderFactory
 
-from libero_bench.algos.base import ALGOS, Algo, AlgoConfig, Batch, DataloaderFactory
-from libero_bench.policies.base import Policy, eval_mode
+if TYPE_CHECKING:
+    from torch import Tensor
+
+    from libero_bench.policies.base import Policy
+
 
 logger = logging.getLogger(__name__)
 
 
+@ALGO_CONFIGS.register("ewc")
 @dataclass(frozen=True)
 class EWCConfig(AlgoConfig):
     name: ClassVar[str] = "ewc"
+    algorithm: ClassVar[str] = "libero_bench.algos.ewc:EWC"
+    sizes: ClassVar[dict[str, dict[str, Any]]] = {"smoke": {"fisher_batches": 4}}
 
     penalty_weight: float = 5e4
     gamma: float = 0.9
@@ -39,12 +44,7 @@ class EWCConfig(AlgoConfig):
         if self.fisher_batches is not None and self.fisher_batches <= 0:
             self._fail("fisher_batches", "must be positive or None")
 
-    @classmethod
-    def smoke(cls) -> EWCConfig:
-        return cls(fisher_batches=4)
 
-
-@ALGOS.register("ewc")
 class EWC(Algo):
     config_class = EWCConfig
     config: EWCConfig
@@ -56,6 +56,8 @@ class EWC(Algo):
 
     def penalty(self) -> Tensor:
         """``sum F * (theta - anchor)^2`` over all parameters (0 before the first task ends)."""
+        import torch
+
         params = dict(self.policy.named_parameters())
         device = next(iter(params.values())).device
         total = torch.zeros((), device=device)
@@ -69,6 +71,8 @@ class EWC(Algo):
         return terms
 
     def end_task(self, task_index: int, dataloader_factory: DataloaderFactory) -> None:
+        import torch
+
         super().end_task(task_index, dataloader_factory)
         policy = self.policy
         params = {n: p for n, p in policy.named_parameters() if p.requires_grad}
@@ -76,6 +80,8 @@ class EWC(Algo):
         fisher = {n: torch.zeros_like(p) for n, p in params.items()}
         batches = 0
         # eval mode: no dropout or augmentation noise, batch-norm statistics left untouched
+        from libero_bench.policies.base import eval_mode
+
         with eval_mode(policy):
             for batch in dataloader_factory():
                 for p in params.values():

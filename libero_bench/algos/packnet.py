@@ -21,22 +21,37 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
-import torch
-from torch import Tensor, nn
+from libero_bench.algos.base import ALGO_CONFIGS, Algo, AlgoConfig, Batch, DataloaderFactory
 
-from libero_bench.algos.base import ALGOS, Algo, AlgoConfig, Batch, DataloaderFactory
-from libero_bench.policies.base import Policy
+if TYPE_CHECKING:
+    from torch import Tensor, nn
+
+    from libero_bench.policies.base import Policy
+
 
 logger = logging.getLogger(__name__)
 
-_NORMS = (nn.modules.batchnorm._BatchNorm, nn.LayerNorm, nn.GroupNorm, nn.modules.instancenorm._InstanceNorm)
+
+def _norms() -> tuple[type, ...]:
+    """The normalisation layers (their weights and statistics are never pruned)."""
+    from torch import nn
+
+    return (
+        nn.modules.batchnorm._BatchNorm,
+        nn.LayerNorm,
+        nn.GroupNorm,
+        nn.modules.instancenorm._InstanceNorm,
+    )
 
 
+@ALGO_CONFIGS.register("packnet")
 @dataclass(frozen=True)
 class PackNetConfig(AlgoConfig):
     name: ClassVar[str] = "packnet"
+    algorithm: ClassVar[str] = "libero_bench.algos.packnet:PackNet"
+    sizes: ClassVar[dict[str, dict[str, Any]]] = {"smoke": {"post_prune_epochs": 1}}
 
     prune_fraction: float = 0.75
     post_prune_epochs: int = 50
@@ -47,17 +62,13 @@ class PackNetConfig(AlgoConfig):
         if self.post_prune_epochs < 0:
             self._fail("post_prune_epochs", "must be >= 0")
 
-    @classmethod
-    def smoke(cls) -> PackNetConfig:
-        return cls(post_prune_epochs=1)
-
 
 def prunable_names(policy: nn.Module) -> list[str]:
     """Weights that PackNet splits between tasks: the ``weight*`` tensors with two or more
     dimensions of layers that are not normalisation layers (linear, convolution, LSTM)."""
     names = []
     for module_name, module in policy.named_modules():
-        if isinstance(module, _NORMS):
+        if isinstance(module, _norms()):
             continue
         for p_name, p in module.named_parameters(recurse=False):
             if p_name.startswith("weight") and p.dim() >= 2:
@@ -65,7 +76,6 @@ def prunable_names(policy: nn.Module) -> list[str]:
     return names
 
 
-@ALGOS.register("packnet")
 class PackNet(Algo):
     config_class = PackNetConfig
     config: PackNetConfig
@@ -92,13 +102,15 @@ class PackNet(Algo):
         }
 
     def _norm_prefixes(self) -> list[str]:
-        return [f"{n}." for n, m in self.policy.named_modules() if isinstance(m, _NORMS)]
+        return [f"{n}." for n, m in self.policy.named_modules() if isinstance(m, _norms())]
 
     def _norm_modules(self) -> list[nn.Module]:
-        return [m for m in self.policy.modules() if isinstance(m, _NORMS)]
+        return [m for m in self.policy.modules() if isinstance(m, _norms())]
 
     def _snapshot(self) -> None:
         """Record which entries may change in the current phase and the values of the rest."""
+        import torch
+
         self._frozen, self._trainable = {}, {}
         shared_frozen = self.task_index > 0
         for name, p in self._params().items():
@@ -116,6 +128,8 @@ class PackNet(Algo):
                 self._frozen[f"buffer:{name}"] = b.detach().clone()
 
     def _restore_frozen(self) -> None:
+        import torch
+
         if not self._frozen:
             return
         with torch.no_grad():
@@ -132,6 +146,8 @@ class PackNet(Algo):
 
     # -- task boundaries ----------------------------------------------------------------------
     def start_task(self, task_index: int, policy: Policy) -> None:
+        import torch
+
         if self._policy is not None:
             self.set_eval_task(None)
         super().start_task(task_index, policy)
@@ -154,6 +170,8 @@ class PackNet(Algo):
         self._restore_frozen()
 
     def end_task(self, task_index: int, dataloader_factory: DataloaderFactory) -> None:
+        import torch
+
         super().end_task(task_index, dataloader_factory)
         self.set_eval_task(None)
         self._restore_frozen()
@@ -181,6 +199,8 @@ class PackNet(Algo):
 
     # -- evaluation ---------------------------------------------------------------------------
     def set_eval_task(self, task_index: int | None) -> None:
+        import torch
+
         if task_index is None:
             if self._eval_backup is not None:
                 with torch.no_grad():

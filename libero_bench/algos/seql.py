@@ -5,15 +5,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from libero_bench.algos.base import ALGOS, Algo, AlgoConfig
+from libero_bench.algos.base import ALGO_CONFIGS, Algo, AlgoConfig
 
 
+@ALGO_CONFIGS.register("seql")
 @dataclass(frozen=True)
 class SeqLConfig(AlgoConfig):
     name: ClassVar[str] = "seql"
+    algorithm: ClassVar[str] = "libero_bench.algos.seql:SeqL"
 
 
-@ALGOS.register("seql")
 class SeqL(Algo):
     """Trains on each new task with the plain behaviour-cloning loss."""
 

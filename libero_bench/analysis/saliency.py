@@ -18,7 +18,7 @@ import torch.nn.functional as F
 from numpy.typing import ArrayLike
 from torch import Tensor
 
-from libero_bench.policies import Policy, eval_mode
+from libero_bench.policies.base import Policy, eval_mode
 
 logger = logging.getLogger(__name__)
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from libero_bench.policies import Policy
+    from libero_bench.policies.base import Policy
     from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
     from libero_data.runtime.jobs import Executor
 

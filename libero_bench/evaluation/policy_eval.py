@@ -28,6 +28,7 @@ from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make
 from libero_bench.rollouts.loop import Execution
 from libero_bench.rollouts.sources import PolicySource, is_server, policy_source
 from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
+from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.pipeline.request import state_width
 from libero_data.runtime.files import read_json, write_json, write_text
@@ -38,7 +39,7 @@ EVAL_FORMAT = "libero-bench-eval/1"
 
 
 @dataclass(frozen=True)
-class EvalRequest:
+class EvalRequest(Config):
     """What to evaluate: a LeRobot policy folder or a policy server (``ws://HOST:PORT``) on
     tasks, from how many starts of each kind. For a server, ``image_size`` is the camera size
     sent (default: the size the server's metadata names, else 224, openpi's) and

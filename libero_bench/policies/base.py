@@ -1,4 +1,5 @@
-"""The policy interface every registered policy implements, and the ``POLICIES`` registry.
+"""The policy interface every registered policy implements (the registry of their configs is
+``libero_bench.policies.config_base.POLICY_CONFIGS``).
 
 A policy splits into a per-frame encoder (``encode_frames``: frames are encoded
 independently), a temporal model over the window (``temporal``) and a GMM head. The base
@@ -41,7 +42,6 @@ from libero_bench.data.batch_keys import (
 from libero_bench.policies.config_base import PolicyConfig
 from libero_bench.policies.modules.augment import augment_images
 from libero_bench.policies.modules.gmm import GMMHead, gmm_mode_mean
-from libero_data.registry import Registry
 
 Batch = Mapping[str, Tensor]
 
@@ -216,6 +216,3 @@ class TokenPolicy(Policy):
             parts.update({i: y[j] for j, i in enumerate(rows)})
         out = torch.stack([parts[i] for i in range(len(kept))])
         return out, kept
-
-
-POLICIES: Registry[type[Policy]] = Registry("policy")

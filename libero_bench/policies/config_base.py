@@ -6,26 +6,27 @@ This module does not import torch, so configs can be built, validated and saved 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Self
+from typing import ClassVar
 
-from libero_bench.train.presets import POLICY_SIZES
+from libero_bench.sizes import Sized
 from libero_data.config import Config
-from libero_data.errors import InputError
+from libero_data.registry import Registry
 
 
 @dataclass(frozen=True)
-class PolicyConfig(Config):
+class PolicyConfig(Sized, Config):
     """Fields shared by every policy: input sizes, the GMM action head and augmentation.
 
-    ``paper()`` gives the sizes of the LIBERO paper (Liu et al. 2023, appendix) and the
-    upstream ``libero/configs/policy`` files; ``smoke()`` gives a tiny model for tests and
-    CPU smoke runs; ``size("quick")`` a model between the two that trains on two CPU cores
-    at 64x64 in 1.6-1.7 times the smoke model's time per sample (the ``quick`` preset).
+    ``size("paper")`` gives the sizes of the LIBERO paper (Liu et al. 2023, appendix) and the
+    upstream ``libero/configs/policy`` files; ``size("smoke")`` a tiny model for tests and CPU
+    smoke runs; ``size("quick")`` a model between the two that trains on two CPU cores at 64x64
+    in 1.6-1.7 times the smoke model's time per sample (the ``quick`` preset); each policy's
+    ``sizes`` table (:mod:`libero_bench.sizes`) says what they change.
     """
 
     name: ClassVar[str] = ""
-    smoke_overrides: ClassVar[dict[str, Any]] = {}
-    quick_overrides: ClassVar[dict[str, Any]] = {}
+    #: where the torch model is, ``module:Class`` (imported by ``libero_bench.policies.build_policy``)
+    model: ClassVar[str] = ""
 
     image_size: int = 128
     task_emb_dim: int = 384
@@ -50,23 +51,6 @@ class PolicyConfig(Config):
         if not isinstance(self.augment, bool):
             self._fail("augment", "must be a bool")
 
-    # -- sizes ----------------------------------------------------------------------------
-    @classmethod
-    def paper(cls, **overrides: Any) -> Self:
-        """The paper's sizes (the dataclass defaults), with optional overrides."""
-        return cls(**overrides)
 
-    @classmethod
-    def smoke(cls, **overrides: Any) -> Self:
-        """A tiny model (a training step on CPU takes milliseconds), with optional overrides."""
-        return cls(**{**cls.smoke_overrides, **overrides})
-
-    @classmethod
-    def size(cls, size: str, **overrides: Any) -> Self:
-        """``paper``, ``quick`` or ``smoke``."""
-        sizes = {"paper": {}, "quick": cls.quick_overrides, "smoke": cls.smoke_overrides}
-        if size not in sizes:
-            raise InputError(
-                f"unknown policy size {size!r}; known: {', '.join(POLICY_SIZES)}", field="policy_size"
-            )
-        return cls(**{**sizes[size], **overrides})
+#: Every policy's config, by name: each ``<policy>/config.py`` registers its own (no torch here).
+POLICY_CONFIGS: Registry[type[PolicyConfig]] = Registry("policy")

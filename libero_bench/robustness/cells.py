@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from libero_bench.analysis.intervals import Rate
+from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.tasks.horizons import SUITE, StepLimit, check_step_limit, limit_text, step_limit
 
@@ -30,7 +31,7 @@ REPORT = "robustness"
 
 
 @dataclass(frozen=True)
-class SweepRequest:
+class SweepRequest(Config):
     """What to sweep: source tasks, kinds and levels, rollouts per cell, rollout settings."""
 
     tasks: tuple[str, ...]

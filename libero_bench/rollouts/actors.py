@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from libero_bench.policies import Policy
+    from libero_bench.policies.base import Policy
 
 Observations = Mapping[int, Mapping[str, Any]]
 

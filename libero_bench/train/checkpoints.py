@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     import torch
 
     from libero_bench.algos import Algo
-    from libero_bench.policies import Policy
+    from libero_bench.policies.base import Policy
 
 logger = logging.getLogger(__name__)
 
@@ -126,10 +126,10 @@ def load_initial_weights(path: Path, policy: Policy, device: torch.device, polic
 
 def kept_checkpoint(folder: RunFolder, config: dict[str, Any], position: int) -> Path:
     """The checkpoint a run kept after the task at ``position`` (MTL: its one checkpoint)."""
-    from libero_bench.algos import ALGOS
+    from libero_bench.algos import algo_class
 
     folder.refuse_pickles()
-    index = 0 if ALGOS.get(config["algo"]).needs_all_tasks else position
+    index = 0 if algo_class(config["algo"]).needs_all_tasks else position
     path = folder.checkpoint(index)
     if not path.is_file():
         name = config["tasks"][position]["name"]
@@ -139,15 +139,15 @@ def kept_checkpoint(folder: RunFolder, config: dict[str, Any], position: int) ->
 
 def policy_from_checkpoint(config: dict[str, Any], checkpoint: Path, position: int) -> tuple[Any, Any]:
     """(policy, algorithm) of a checkpoint, in the algorithm's evaluation view of the task."""
-    from libero_bench.algos import ALGOS, algo_config_from_dict
-    from libero_bench.policies import POLICIES, config_from_dict
+    from libero_bench.algos import algo_config_from_dict, build_algo
+    from libero_bench.policies import build_policy, config_from_dict
 
     state = read_checkpoint(checkpoint)
     try:
         pconfig = config_from_dict(config["policy_config"])
-        policy = POLICIES.get(pconfig.name).from_config(pconfig)
+        policy = build_policy(pconfig)
         acfg = algo_config_from_dict(config["algo_config"])
-        algo = ALGOS.get(acfg.name)(acfg)
+        algo = build_algo(acfg)
     except (KeyError, TypeError, ValueError) as exc:
         what = first_line(exc)
         raise RunError(

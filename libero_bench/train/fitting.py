@@ -13,7 +13,7 @@ if TYPE_CHECKING:
 
     from libero_bench.algos import Algo
     from libero_bench.data.windows import TaskLoader
-    from libero_bench.policies import Policy
+    from libero_bench.policies.base import Policy
     from libero_bench.train.plan import RunPlan
     from libero_bench.train.presets import TrainPreset
 
@@ -103,7 +103,7 @@ def loss_epoch(policy: Policy, loader: TaskLoader, on_step: Callable[[float], No
     """Epoch 0: the behaviour-cloning loss of the untouched policy (no updates)."""
     import torch
 
-    from libero_bench.policies import eval_mode
+    from libero_bench.policies.base import eval_mode
 
     total = 0.0
     batches = 0

@@ -20,7 +20,8 @@ from libero_bench.data.batch_keys import (
     TASK_ID,
     WRIST,
 )
-from libero_bench.policies import POLICIES, Batch, Policy, eval_mode, policy_config
+from libero_bench.policies import build_policy, policy_config, policy_names
+from libero_bench.policies.base import Batch, Policy, eval_mode
 
 logger = logging.getLogger(__name__)
 
@@ -98,10 +99,10 @@ def policy_table(
     ``window`` frames at ``image_size`` x ``image_size`` (two cameras)."""
     rows: list[dict[str, Any]] = []
     for size in sizes:
-        for name in POLICIES.names():
+        for name in policy_names():
             config = policy_config(name, size, image_size=image_size, window=window)
             torch.manual_seed(0)
-            policy = POLICIES.get(name).from_config(config)
+            policy = build_policy(config)
             batch = synthetic_batch(1, window, image_size, config.task_emb_dim)
             flops = forward_flops(policy, batch)
             rows.append(

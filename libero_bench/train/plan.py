@@ -16,6 +16,7 @@ from libero_bench.data.dataset import DemoDataset, DemoTask
 from libero_bench.data.mixing import DEFAULT_WEIGHT, MixPlan, check_weight, plan_mix
 from libero_bench.runs.folder import RUN_FORMAT, RunFolder
 from libero_bench.train.presets import TrainPreset
+from libero_data.config import Config
 from libero_data.errors import FolderError, InputError, MissingFileError, UnknownNameError
 from libero_data.numerics import machine_fingerprint
 from libero_data.runtime.jobs import Executor
@@ -32,7 +33,7 @@ RUNTIME_KEYS = ("runtime",)
 
 
 @dataclass(frozen=True)
-class RunRequest:
+class RunRequest(Config):
     """What to run (the parts that define the run's results)."""
 
     data: Path
@@ -48,7 +49,7 @@ class RunRequest:
 
 
 @dataclass(frozen=True)
-class RunOptions:
+class RunOptions(Config):
     """How to run it (free to change when resuming)."""
 
     device: str = "cpu"
@@ -87,13 +88,12 @@ def select_tasks(source: DemoDataset, tasks: Sequence[str] | None, order: int | 
 
 
 def _algo_for(name: str, size: str, seed: int) -> Algo:
-    from libero_bench.algos import ALGOS
+    from libero_bench.algos import algo_config, build_algo
 
-    cls = ALGOS.get(name)
-    config = cls.config_class() if size == "paper" else cls.config_class.smoke()
+    config = algo_config(name, size)
     if any(f.name == "seed" for f in dataclasses.fields(config)):
         config = config.replace(seed=seed)
-    return cls(config)
+    return build_algo(config)
 
 
 @dataclass
@@ -176,14 +176,14 @@ class RunPlan:
 
 def plan_run(request: RunRequest) -> RunPlan:
     """Check the request and resolve it (reads the dataset's metadata, embeds the tasks)."""
-    from libero_bench.algos import ALGOS
+    from libero_bench.algos import algo_names
     from libero_bench.data.language import encode_tasks
-    from libero_bench.policies import POLICIES, policy_config
+    from libero_bench.policies import policy_config, policy_names
 
-    if request.algo not in ALGOS:
-        raise UnknownNameError(f"unknown algorithm {request.algo!r}; known: {', '.join(ALGOS.names())}")
-    if request.policy not in POLICIES:
-        raise UnknownNameError(f"unknown policy {request.policy!r}; known: {', '.join(POLICIES.names())}")
+    if request.algo not in algo_names():
+        raise UnknownNameError(f"unknown algorithm {request.algo!r}; known: {', '.join(algo_names())}")
+    if request.policy not in policy_names():
+        raise UnknownNameError(f"unknown policy {request.policy!r}; known: {', '.join(policy_names())}")
     if request.init_checkpoint is not None and not request.init_checkpoint.is_file():
         raise MissingFileError(f"the initial checkpoint {request.init_checkpoint} does not exist")
     check_weight(request.mix_weight)
@@ -227,12 +227,10 @@ def _check_initial_weights(path: Path, pconfig: Any, policy_name: str) -> None:
     a run folder is made."""
     import torch
 
-    from libero_bench.policies import POLICIES
+    from libero_bench.policies import build_policy
     from libero_bench.train.checkpoints import load_initial_weights
 
-    load_initial_weights(
-        path, POLICIES.get(pconfig.name).from_config(pconfig), torch.device("cpu"), policy_name
-    )
+    load_initial_weights(path, build_policy(pconfig), torch.device("cpu"), policy_name)
 
 
 def check_device(name: str) -> torch.device:

@@ -13,6 +13,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+from libero_bench.sizes import SIZES
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.registry import Registry
@@ -20,7 +21,6 @@ from libero_data.tasks.horizons import SUITE, StepLimit, is_step_limit
 
 #: Model sizes every policy has (libero_bench.policies.config_base); kept here so that
 #: presets load without torch.
-POLICY_SIZES = ("paper", "quick", "smoke")
 
 
 @dataclass(frozen=True)
@@ -96,10 +96,9 @@ class TrainPreset(Config):
             self._fail("optimizer", "must be 'adamw'")
         if self.scheduler not in ("cosine", "none"):
             self._fail("scheduler", "must be 'cosine' or 'none'")
-        if self.policy_size not in POLICY_SIZES:
-            self._fail("policy_size", f"must be one of {', '.join(POLICY_SIZES)}")
-        if self.algo_size not in ("paper", "smoke"):
-            self._fail("algo_size", "must be 'paper' or 'smoke'")
+        for field in ("policy_size", "algo_size"):
+            if getattr(self, field) not in SIZES:
+                self._fail(field, f"must be one of {', '.join(SIZES)}")
 
     def with_overrides(self, assignments: list[str]) -> TrainPreset:
         """A copy with ``field=value`` assignments applied (values read as JSON, else as text)."""

@@ -23,7 +23,7 @@ from libero_bench.train.plan import RunPlan, resolve_eval_task
 if TYPE_CHECKING:
     from libero_bench.algos import Algo
     from libero_bench.evaluation.evaluator import Evaluator
-    from libero_bench.policies import Policy
+    from libero_bench.policies.base import Policy
     from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult
     from libero_bench.train.observer import RunObserver
 

@@ -69,7 +69,7 @@ from libero_data.seeding import END_TASK_LOADER, LOADER, TASK_START, WEIGHTS, ru
 if TYPE_CHECKING:
     from libero_bench.algos import Algo
     from libero_bench.data.windows import TaskLoader
-    from libero_bench.policies import Policy
+    from libero_bench.policies.base import Policy
 
 __all__ = ["RunObserver", "RunOptions", "RunRequest", "Trainer", "plan_run", "run_lifelong"]
 
@@ -153,16 +153,16 @@ class Trainer:
         return results
 
     def _new_policy(self) -> Policy:
-        from libero_bench.policies import POLICIES, config_from_dict
+        from libero_bench.policies import build_policy, config_from_dict
 
         config = config_from_dict(self.plan.policy_config)
-        return POLICIES.get(config.name).from_config(config).to(self.device)
+        return build_policy(config).to(self.device)
 
     def _new_algo(self) -> Algo:
-        from libero_bench.algos import ALGOS, algo_config_from_dict
+        from libero_bench.algos import algo_config_from_dict, build_algo
 
         config = algo_config_from_dict(self.plan.algo_config)
-        return ALGOS.get(config.name)(config)
+        return build_algo(config)
 
     def _save_checkpoint(self, task: int, stage: str, policy: Policy, algo: Algo) -> None:
         save_checkpoint(

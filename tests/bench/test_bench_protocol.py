@@ -13,7 +13,7 @@ import pytest
 import torch
 from bench_helpers import Succeeds
 
-from libero_bench.algos import ALGOS
+from libero_bench.algos import algo_class, algo_names
 from libero_bench.evaluation import evaluator as evaluate
 from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
 from libero_bench.train.checkpoints import read_checkpoint
@@ -77,14 +77,14 @@ def _trainer(data: Path, out: Path, algo: str) -> Trainer:
     return Trainer(plan, out, RunOptions())
 
 
-@pytest.mark.parametrize("algo", ALGOS.names())
+@pytest.mark.parametrize("algo", algo_names())
 def test_protocol(algo: str, tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator]) -> None:
     results = _trainer(tiny_dataset, tmp_path / "run", algo).run()
     assert results.complete and results.stage == ["done", "done"]
     assert results.eval_epochs == [0, 1, 2]
     checkpoint = read_checkpoint(tmp_path / "run" / "checkpoints" / "task_000.safetensors")
     policy_digest = sum(v.double().sum() for v in checkpoint["policy"].values() if v.is_floating_point())
-    if ALGOS.get(algo).needs_all_tasks:
+    if algo_class(algo).needs_all_tasks:
         # one multitask training, every task evaluated at every epoch, best mean kept (epoch 1)
         assert results.curve == [CURVE[0], CURVE[1]]
         assert results.best_epoch == [1, 1]

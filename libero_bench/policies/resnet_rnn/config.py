@@ -5,9 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from libero_bench.policies.config_base import PolicyConfig
+from libero_bench.policies.config_base import POLICY_CONFIGS, PolicyConfig
 
 
+@POLICY_CONFIGS.register("resnet_rnn")
 @dataclass(frozen=True)
 class ResNetRNNConfig(PolicyConfig):
     """Paper Table II / upstream ``bc_rnn_policy.yaml``: image embedding 64 per camera,
@@ -15,25 +16,28 @@ class ResNetRNNConfig(PolicyConfig):
     GMM head (2 x 1024, 5 modes)."""
 
     name: ClassVar[str] = "resnet_rnn"
-    smoke_overrides: ClassVar[dict[str, Any]] = {
-        "image_embed_dim": 16,
-        "text_embed_dim": 8,
-        "resnet_channels": (8, 16),
-        "rnn_hidden_dim": 32,
-        "rnn_num_layers": 1,
-        "head_hidden_dim": 32,
-        "head_num_layers": 1,
-        "augment": False,
-    }
-    quick_overrides: ClassVar[dict[str, Any]] = {
-        "image_embed_dim": 64,
-        "text_embed_dim": 32,
-        "resnet_channels": (16, 32),
-        "rnn_hidden_dim": 128,
-        "rnn_num_layers": 2,
-        "head_hidden_dim": 256,
-        "head_num_layers": 2,
-        "augment": False,
+    model: ClassVar[str] = "libero_bench.policies.resnet_rnn.model:ResNetRNN"
+    sizes: ClassVar[dict[str, dict[str, Any]]] = {
+        "quick": {
+            "image_embed_dim": 64,
+            "text_embed_dim": 32,
+            "resnet_channels": (16, 32),
+            "rnn_hidden_dim": 128,
+            "rnn_num_layers": 2,
+            "head_hidden_dim": 256,
+            "head_num_layers": 2,
+            "augment": False,
+        },
+        "smoke": {
+            "image_embed_dim": 16,
+            "text_embed_dim": 8,
+            "resnet_channels": (8, 16),
+            "rnn_hidden_dim": 32,
+            "rnn_num_layers": 1,
+            "head_hidden_dim": 32,
+            "head_num_layers": 1,
+            "augment": False,
+        },
     }
 
     image_embed_dim: int = 64

@@ -17,14 +17,13 @@ from libero_bench.data.batch_keys import (
     TASK_EMB,
     WRIST,
 )
-from libero_bench.policies.base import POLICIES, Batch, Policy
+from libero_bench.policies.base import Batch, Policy
 from libero_bench.policies.modules.film_resnet import FiLMResNetEncoder
 from libero_bench.policies.modules.gmm import GMMHead
 from libero_bench.policies.modules.lowdim import mlp
 from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
 
 
-@POLICIES.register("resnet_rnn")
 class ResNetRNN(Policy):
     """Language enters twice, as in LIBERO: FiLM inside the image encoders (from the raw
     task embedding) and a projected embedding in every frame's LSTM input."""

@@ -5,9 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from libero_bench.policies.config_base import PolicyConfig
+from libero_bench.policies.config_base import POLICY_CONFIGS, PolicyConfig
 
 
+@POLICY_CONFIGS.register("resnet_t")
 @dataclass(frozen=True)
 class ResNetTConfig(PolicyConfig):
     """Paper Table III / upstream ``bc_transformer_policy.yaml``: token size 64, a temporal
@@ -15,27 +16,30 @@ class ResNetTConfig(PolicyConfig):
     sinusoidal temporal positions, language as the first token of every timestep."""
 
     name: ClassVar[str] = "resnet_t"
-    smoke_overrides: ClassVar[dict[str, Any]] = {
-        "embed_dim": 16,
-        "resnet_channels": (8, 16),
-        "num_layers": 1,
-        "num_heads": 2,
-        "head_dim": 8,
-        "mlp_dim": 32,
-        "head_hidden_dim": 32,
-        "head_num_layers": 1,
-        "augment": False,
-    }
-    quick_overrides: ClassVar[dict[str, Any]] = {
-        "embed_dim": 64,
-        "resnet_channels": (16, 32),
-        "num_layers": 2,
-        "num_heads": 4,
-        "head_dim": 16,
-        "mlp_dim": 128,
-        "head_hidden_dim": 256,
-        "head_num_layers": 2,
-        "augment": False,
+    model: ClassVar[str] = "libero_bench.policies.resnet_t.model:ResNetT"
+    sizes: ClassVar[dict[str, dict[str, Any]]] = {
+        "quick": {
+            "embed_dim": 64,
+            "resnet_channels": (16, 32),
+            "num_layers": 2,
+            "num_heads": 4,
+            "head_dim": 16,
+            "mlp_dim": 128,
+            "head_hidden_dim": 256,
+            "head_num_layers": 2,
+            "augment": False,
+        },
+        "smoke": {
+            "embed_dim": 16,
+            "resnet_channels": (8, 16),
+            "num_layers": 1,
+            "num_heads": 2,
+            "head_dim": 8,
+            "mlp_dim": 32,
+            "head_hidden_dim": 32,
+            "head_num_layers": 1,
+            "augment": False,
+        },
     }
 
     embed_dim: int = 64

@@ -8,7 +8,7 @@ import torch
 from torch import Tensor, nn
 
 from libero_bench.data.batch_keys import AGENTVIEW, GRIPPER_STATES, JOINT_STATES, TASK_EMB, WRIST
-from libero_bench.policies.base import POLICIES, Batch, TokenPolicy
+from libero_bench.policies.base import Batch, TokenPolicy
 from libero_bench.policies.modules.film_resnet import FiLMResNetEncoder
 from libero_bench.policies.modules.gmm import GMMHead
 from libero_bench.policies.modules.lowdim import LowDimTokens, mlp
@@ -16,7 +16,6 @@ from libero_bench.policies.modules.transformer import TemporalTransformer
 from libero_bench.policies.resnet_t.config import ResNetTConfig
 
 
-@POLICIES.register("resnet_t")
 class ResNetT(TokenPolicy):
     """Tokens per frame: [language, joint, gripper, agentview, wrist]."""
 

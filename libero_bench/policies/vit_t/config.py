@@ -6,9 +6,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from libero_bench.policies.config_base import PolicyConfig
+from libero_bench.policies.config_base import POLICY_CONFIGS, PolicyConfig
 
 
+@POLICY_CONFIGS.register("vit_t")
 @dataclass(frozen=True)
 class ViTTConfig(PolicyConfig):
     """Paper Table IV / upstream ``bc_vilt_policy.yaml``: 8x8 patches after a stride-2 stem,
@@ -17,37 +18,40 @@ class ViTTConfig(PolicyConfig):
     64 dims, MLP 256; dropout 0.1 in both."""
 
     name: ClassVar[str] = "vit_t"
-    smoke_overrides: ClassVar[dict[str, Any]] = {
-        "patch_stem_channels": 8,
-        "embed_dim": 16,
-        "spatial_num_layers": 1,
-        "spatial_num_heads": 2,
-        "spatial_head_dim": 8,
-        "spatial_mlp_dim": 32,
-        "temporal_dim": 16,
-        "num_layers": 1,
-        "num_heads": 2,
-        "head_dim": 8,
-        "mlp_dim": 32,
-        "head_hidden_dim": 32,
-        "head_num_layers": 1,
-        "augment": False,
-    }
-    quick_overrides: ClassVar[dict[str, Any]] = {
-        "patch_stem_channels": 16,
-        "embed_dim": 32,
-        "spatial_num_layers": 2,
-        "spatial_num_heads": 4,
-        "spatial_head_dim": 8,
-        "spatial_mlp_dim": 64,
-        "temporal_dim": 64,
-        "num_layers": 2,
-        "num_heads": 4,
-        "head_dim": 16,
-        "mlp_dim": 128,
-        "head_hidden_dim": 256,
-        "head_num_layers": 2,
-        "augment": False,
+    model: ClassVar[str] = "libero_bench.policies.vit_t.model:ViTT"
+    sizes: ClassVar[dict[str, dict[str, Any]]] = {
+        "quick": {
+            "patch_stem_channels": 16,
+            "embed_dim": 32,
+            "spatial_num_layers": 2,
+            "spatial_num_heads": 4,
+            "spatial_head_dim": 8,
+            "spatial_mlp_dim": 64,
+            "temporal_dim": 64,
+            "num_layers": 2,
+            "num_heads": 4,
+            "head_dim": 16,
+            "mlp_dim": 128,
+            "head_hidden_dim": 256,
+            "head_num_layers": 2,
+            "augment": False,
+        },
+        "smoke": {
+            "patch_stem_channels": 8,
+            "embed_dim": 16,
+            "spatial_num_layers": 1,
+            "spatial_num_heads": 2,
+            "spatial_head_dim": 8,
+            "spatial_mlp_dim": 32,
+            "temporal_dim": 16,
+            "num_layers": 1,
+            "num_heads": 2,
+            "head_dim": 8,
+            "mlp_dim": 32,
+            "head_hidden_dim": 32,
+            "head_num_layers": 1,
+            "augment": False,
+        },
     }
 
     patch_size: int = 8

@@ -8,7 +8,7 @@ import torch
 from torch import Tensor, nn
 
 from libero_bench.data.batch_keys import AGENTVIEW, GRIPPER_STATES, JOINT_STATES, TASK_EMB, WRIST
-from libero_bench.policies.base import POLICIES, Batch, TokenPolicy
+from libero_bench.policies.base import Batch, TokenPolicy
 from libero_bench.policies.modules.gmm import GMMHead
 from libero_bench.policies.modules.lowdim import LowDimTokens, mlp
 from libero_bench.policies.modules.patch_encoder import PatchEncoder
@@ -16,7 +16,6 @@ from libero_bench.policies.modules.transformer import TemporalTransformer, Trans
 from libero_bench.policies.vit_t.config import ViTTConfig
 
 
-@POLICIES.register("vit_t")
 class ViTT(TokenPolicy):
     """Spatial tokens: [summary, agentview patches, wrist patches, language]; temporal tokens
     per frame: [language, spatial summary, joint, gripper]."""

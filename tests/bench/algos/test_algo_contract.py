@@ -8,8 +8,8 @@ import pytest
 import torch
 from bench_helpers import synthetic_batch
 
-from libero_bench.algos import ALGOS, Algo, algo_config_from_dict, make_algo
-from libero_bench.policies import POLICIES, make_policy
+from libero_bench.algos import Algo, algo_class, algo_config_from_dict, algo_names, make_algo
+from libero_bench.policies import make_policy, policy_names
 
 
 def _steps(algo: Algo, policy: torch.nn.Module, batch: dict[str, torch.Tensor], n: int) -> dict[str, float]:
@@ -27,8 +27,8 @@ def _steps(algo: Algo, policy: torch.nn.Module, batch: dict[str, torch.Tensor], 
     return {k: v.item() for k, v in terms.items()}
 
 
-@pytest.mark.parametrize("policy_name", POLICIES.names())
-@pytest.mark.parametrize("algo_name", ALGOS.names())
+@pytest.mark.parametrize("policy_name", policy_names())
+@pytest.mark.parametrize("algo_name", algo_names())
 def test_two_tasks_of_training(algo_name: str, policy_name: str) -> None:
     torch.manual_seed(0)
     policy = make_policy(policy_name, "smoke", image_size=32)
@@ -57,7 +57,7 @@ def test_two_tasks_of_training(algo_name: str, policy_name: str) -> None:
         assert torch.isfinite(p).all()
 
     # the algorithm's state survives a checkpoint round trip
-    restored = ALGOS.get(algo_name)(algo_config_from_dict(algo.config.to_dict()))
+    restored = algo_class(algo_name)(algo_config_from_dict(algo.config.to_dict()))
     restored.load_state_dict(algo.state_dict())
     restored.bind(policy)
     assert restored.task_index == algo.task_index
@@ -65,8 +65,8 @@ def test_two_tasks_of_training(algo_name: str, policy_name: str) -> None:
 
 
 def test_registry_and_flags() -> None:
-    assert ALGOS.names() == ["er", "ewc", "mtl", "packnet", "seql"]
-    assert [n for n in ALGOS.names() if ALGOS.get(n).needs_all_tasks] == ["mtl"]
+    assert algo_names() == ["er", "ewc", "mtl", "packnet", "seql"]
+    assert [n for n in algo_names() if algo_class(n).needs_all_tasks] == ["mtl"]
     assert make_algo("packnet").post_task_epochs == 50
     assert make_algo("seql").post_task_epochs == 0
     with pytest.raises(RuntimeError, match="no policy"):

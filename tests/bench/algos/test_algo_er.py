@@ -8,7 +8,7 @@ import pytest
 import torch
 from bench_helpers import synthetic_batch
 
-from libero_bench.algos import ER, ERConfig
+from libero_bench.algos.er import ER, ERConfig
 from libero_bench.policies import make_policy
 
 

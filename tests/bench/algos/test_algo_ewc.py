@@ -6,8 +6,9 @@ import pytest
 import torch
 from bench_helpers import synthetic_batch
 
-from libero_bench.algos import EWC, EWCConfig
-from libero_bench.policies import Policy, make_policy
+from libero_bench.algos.ewc import EWC, EWCConfig
+from libero_bench.policies import make_policy
+from libero_bench.policies.base import Policy
 
 
 def _trained_ewc() -> tuple[EWC, Policy, dict[str, torch.Tensor]]:

@@ -6,9 +6,9 @@ import pytest
 import torch
 from bench_helpers import synthetic_batch
 
-from libero_bench.algos import PackNet, PackNetConfig
-from libero_bench.algos.packnet import prunable_names
-from libero_bench.policies import Policy, make_policy
+from libero_bench.algos.packnet import PackNet, PackNetConfig, prunable_names
+from libero_bench.policies import make_policy
+from libero_bench.policies.base import Policy
 
 
 def _train(algo: PackNet, policy: Policy, batch: dict[str, torch.Tensor], steps: int) -> None:

@@ -8,11 +8,20 @@ import pytest
 import torch
 from bench_helpers import BatchFactory
 
-from libero_bench.policies import POLICIES, Policy, config_from_dict, make_policy, policy_config
+from libero_bench.policies import (
+    POLICY_CONFIGS,
+    build_policy,
+    config_from_dict,
+    make_policy,
+    policy_config,
+    policy_config_class,
+    policy_names,
+)
+from libero_bench.policies.base import Policy
 from libero_bench.policies.resnet_rnn.config import ResNetRNNConfig
 from libero_bench.policies.resnet_t.config import ResNetTConfig
 from libero_bench.policies.vit_t.config import ViTTConfig
-from libero_bench.train.presets import POLICY_SIZES
+from libero_bench.sizes import SIZES
 
 
 def small(name: str, image_size: int = 32, **overrides: object) -> Policy:
@@ -21,12 +30,12 @@ def small(name: str, image_size: int = 32, **overrides: object) -> Policy:
 
 
 def test_registry_lists_the_three_policies() -> None:
-    assert POLICIES.names() == ["resnet_rnn", "resnet_t", "vit_t"]
+    assert policy_names() == ["resnet_rnn", "resnet_t", "vit_t"]
     with pytest.raises(ValueError, match="already registered"):
-        POLICIES.register("resnet_t")(Policy)
+        POLICY_CONFIGS.register("resnet_t")(ResNetTConfig)
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_forward_gives_a_distribution_per_timestep(name: str, make_batch: BatchFactory) -> None:
     policy = small(name).eval()  # no dropout, so forward and loss see the same network
     batch = make_batch(batch_size=3, window=5)
@@ -42,7 +51,7 @@ def test_forward_gives_a_distribution_per_timestep(name: str, make_batch: BatchF
     assert all(g is not None and torch.isfinite(g).all() for g in grads)
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_a_few_steps_fit_a_batch(name: str, make_batch: BatchFactory) -> None:
     policy = small(name)
     batch = make_batch()
@@ -56,7 +65,7 @@ def test_a_few_steps_fit_a_batch(name: str, make_batch: BatchFactory) -> None:
     assert policy.loss(batch).item() < first - 1.0
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_act_is_deterministic_and_matches_step_by_step(name: str, make_batch: BatchFactory) -> None:
     policy = small(name)
     policy.train()
@@ -84,7 +93,7 @@ def test_act_is_deterministic_and_matches_step_by_step(name: str, make_batch: Ba
         policy.act_step(batch)
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_rows_of_one_batch_keep_their_own_episodes(name: str, make_batch: BatchFactory) -> None:
     """act_rows: three episodes share a batch but start at different steps (row 1 starts anew at
     step 3, as an environment that finished and took its next start); each row's actions are
@@ -110,7 +119,7 @@ def test_rows_of_one_batch_keep_their_own_episodes(name: str, make_batch: BatchF
         policy.act_rows(frame(0, [0, 1]), [None])
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_outputs_are_causal_in_time(name: str, make_batch: BatchFactory) -> None:
     policy = small(name).eval()
     batch = make_batch(window=4)
@@ -124,7 +133,7 @@ def test_outputs_are_causal_in_time(name: str, make_batch: BatchFactory) -> None
     assert not torch.allclose(before[:, -1], after[:, -1])
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 @pytest.mark.parametrize("image_size", [32, 64, 128])
 def test_image_sizes(name: str, image_size: int, make_batch: BatchFactory) -> None:
     policy = small(name, image_size=image_size, task_emb_dim=16)
@@ -134,7 +143,7 @@ def test_image_sizes(name: str, image_size: int, make_batch: BatchFactory) -> No
     assert latent.dim() == 2 and latent.shape[0] == 1
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_visual_latent_depends_on_the_image(name: str, make_batch: BatchFactory) -> None:
     policy = small(name).eval()
     batch = make_batch(batch_size=3)
@@ -146,7 +155,7 @@ def test_visual_latent_depends_on_the_image(name: str, make_batch: BatchFactory)
     assert not torch.allclose(latent, other)
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_bad_batches_are_named(name: str, make_batch: BatchFactory) -> None:
     policy = small(name)
     batch = make_batch(image_size=64)
@@ -161,31 +170,32 @@ def test_bad_batches_are_named(name: str, make_batch: BatchFactory) -> None:
         policy(batch)
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_configs_round_trip_and_validate(name: str) -> None:
-    cls = POLICIES.get(name)
-    for size in POLICY_SIZES:
+    cls = type(build_policy(policy_config(name, "smoke")))
+    assert cls.config_class is policy_config_class(name)
+    for size in SIZES:
         config = policy_config(name, size)
         data = json.loads(json.dumps(config.to_dict()))
         assert data["type"] == name
         assert config_from_dict(data) == config
     smoke = policy_config(name, "smoke", image_size=32)
     assert cls.from_config(smoke).config is smoke
-    other = next(n for n in POLICIES.names() if n != name)
+    other = next(n for n in policy_names() if n != name)
     with pytest.raises(TypeError, match="needs a"):
         cls.from_config(policy_config(other, "smoke"))
     with pytest.raises(ValueError, match=rf"{cls.config_class.__name__}\.window"):
         cls.config_class(window=0)
     with pytest.raises(ValueError, match=rf"{cls.config_class.__name__}\.num_modes"):
         cls.config_class(num_modes=-1)
-    with pytest.raises(ValueError, match="unknown policy size"):
+    with pytest.raises(ValueError, match="unknown size"):
         policy_config(name, "large")
 
 
-@pytest.mark.parametrize("name", POLICIES.names())
+@pytest.mark.parametrize("name", policy_names())
 def test_quick_size_lies_between_smoke_and_paper(name: str, make_batch: BatchFactory) -> None:
     counts = {}
-    for size in POLICY_SIZES:
+    for size in SIZES:
         policy = make_policy(name, size, image_size=64)
         counts[size] = sum(p.numel() for p in policy.parameters())
     assert counts["smoke"] < counts["quick"] < counts["paper"]
