@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any, ClassVar, Self
 
 from libero_data.errors import ConfigError
 
@@ -21,6 +21,15 @@ from libero_data.errors import ConfigError
 @dataclass(frozen=True)
 class Config:
     """Base of the project's configs (see the module docstring)."""
+
+    #: What a file written before a field existed meant by leaving it out (field -> value): the
+    #: one way configs read what earlier versions wrote (:meth:`upgrade`, used by :meth:`from_dict`).
+    legacy: ClassVar[dict[str, Any]] = {}
+
+    @classmethod
+    def upgrade(cls, data: Mapping[str, Any]) -> dict[str, Any]:
+        """``data`` as any version wrote it, with the fields it predates filled from :attr:`legacy`."""
+        return {**cls.legacy, **data}
 
     # -- validation ------------------------------------------------------------------------------
     def _fail(self, field: str, message: str) -> None:
@@ -69,8 +78,9 @@ class Config:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Self:
-        """Inverse of :meth:`to_dict` (a ``type``, if present, must be this class's)."""
-        data = dict(data)
+        """Inverse of :meth:`to_dict` (a ``type``, if present, must be this class's); what an
+        earlier version wrote is read through :meth:`upgrade`."""
+        data = cls.upgrade(data)
         expected = cls.registry_name()
         kind = data.pop("type", expected) if expected else expected
         if kind != expected:

@@ -232,3 +232,26 @@ def test_registered_configs_need_no_torch() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.strip() == "False"
+
+
+def _assigned_names(path: Path) -> list[str]:
+    names = []
+    for node in ast.parse(path.read_text()).body:
+        targets = (
+            node.targets
+            if isinstance(node, ast.Assign)
+            else [node.target]
+            if isinstance(node, ast.AnnAssign)
+            else []
+        )
+        names += [t.id for t in targets if isinstance(t, ast.Name)]
+    return names
+
+
+def test_old_files_are_read_one_way() -> None:
+    """What earlier versions wrote is declared on the config that reads it (``legacy``), not in
+    module-level tables beside it."""
+    found = [
+        f"{m}: {n}" for m, path in MODULES.items() for n in _assigned_names(path) if n.startswith("LEGACY")
+    ]
+    assert found == []

@@ -104,15 +104,6 @@ class RunResults:
     after_heldout: list[list[float]] = field(default_factory=list)
     pruned_heldout: list[float | None] = field(default_factory=list)
 
-    def __post_init__(self) -> None:
-        k, e = len(self.tasks), len(self.eval_epochs)
-        if not self.curve_heldout:  # results written before held-out starts existed
-            self.curve_heldout = [[math.nan] * e for _ in range(k)]
-        if not self.after_heldout:
-            self.after_heldout = [[math.nan] * k for _ in range(k)]
-        if not self.pruned_heldout:
-            self.pruned_heldout = [None] * k
-
     def kept_index(self, task: int) -> int:
         """The evaluation point whose checkpoint the run kept for ``task`` (its best epoch;
         else the last one measured)."""
@@ -152,6 +143,9 @@ class RunResults:
             post_losses=[[] for _ in range(k)],
             pruned=[None] * k,
             stage=[""] * k,
+            curve_heldout=[[math.nan] * e for _ in range(k)],
+            after_heldout=[[math.nan] * k for _ in range(k)],
+            pruned_heldout=[None] * k,
         )
 
     @property
@@ -183,7 +177,24 @@ class RunResults:
         }
 
     @classmethod
+    def upgrade(cls, data: Mapping[str, Any]) -> dict[str, Any]:
+        """``results.json`` as any version wrote it: results written before held-out starts existed
+        get NaN curves from them (the one way results read what earlier versions wrote)."""
+        out = dict(data)
+        k, e = len(out["tasks"]), len(out["eval_epochs"])
+        out.setdefault("rollouts", [])
+        out.setdefault("complete", False)
+        if not out.get("curve_heldout"):
+            out["curve_heldout"] = [[math.nan] * e for _ in range(k)]
+        if not out.get("after_heldout"):
+            out["after_heldout"] = [[math.nan] * k for _ in range(k)]
+        if not out.get("pruned_heldout"):
+            out["pruned_heldout"] = [None] * k
+        return out
+
+    @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RunResults:
+        data = cls.upgrade(data)
         return cls(
             tasks=list(data["tasks"]),
             eval_epochs=[int(e) for e in data["eval_epochs"]],
@@ -194,11 +205,11 @@ class RunResults:
             post_losses=list(data["post_losses"]),
             pruned=list(data["pruned"]),
             stage=list(data["stage"]),
-            rollouts=list(data.get("rollouts", [])),
-            complete=bool(data.get("complete", False)),
-            curve_heldout=_none_to_nan(data.get("curve_heldout", [])),
-            after_heldout=_none_to_nan(data.get("after_heldout", [])),
-            pruned_heldout=list(data.get("pruned_heldout", [])),
+            rollouts=list(data["rollouts"]),
+            complete=bool(data["complete"]),
+            curve_heldout=_none_to_nan(data["curve_heldout"]),
+            after_heldout=_none_to_nan(data["after_heldout"]),
+            pruned_heldout=list(data["pruned_heldout"]),
         )
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from libero_bench.sizes import SIZES
 from libero_data.config import Config
@@ -26,6 +26,9 @@ from libero_data.tasks.horizons import SUITE, StepLimit, is_step_limit
 @dataclass(frozen=True)
 class TrainPreset(Config):
     """How a lifelong run trains and evaluates (the same for every task)."""
+
+    #: What a run's preset meant by fields added after it was made (its config.json lacks them).
+    legacy: ClassVar[dict[str, Any]] = {"augment": None}
 
     name: str
     epochs: int = 50

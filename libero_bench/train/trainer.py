@@ -60,6 +60,7 @@ from libero_bench.train.plan import (
     check_out_folder,
     plan_run,
 )
+from libero_bench.train.presets import TrainPreset
 from libero_bench.train.rounds import EvaluationRounds
 from libero_data.errors import SettingsChanged
 from libero_data.runtime.files import write_json
@@ -74,9 +75,6 @@ if TYPE_CHECKING:
 __all__ = ["RunObserver", "RunOptions", "RunRequest", "Trainer", "plan_run", "run_lifelong"]
 
 logger = logging.getLogger(__name__)
-
-#: What a run's preset meant by fields added after it was made (its config.json lacks them).
-LEGACY_PRESET: dict[str, Any] = {"augment": None}
 
 
 class Trainer:
@@ -122,7 +120,7 @@ class Trainer:
             saved = self.folder.read_config()
             if self.folder.results.is_file():
                 self.folder.read_results()  # a damaged results.json is refused before anything is written
-            preset = {**LEGACY_PRESET, **saved.get("preset", {})}
+            preset = TrainPreset.upgrade(saved.get("preset", {}))
             changed = changed_keys({**saved, "preset": preset}, config, ignore=RUNTIME_KEYS)
             if changed:
                 raise SettingsChanged(

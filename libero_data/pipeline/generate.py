@@ -26,7 +26,6 @@ from pathlib import Path
 from libero_data.errors import FolderError, SettingsChanged
 from libero_data.pipeline.episodes import EpisodeDone, EpisodeJob, make_episodes, search_path, shard_path
 from libero_data.pipeline.request import (
-    LEGACY_REQUEST,
     GenerateRequest,
     resolve_request,
     sim_state_width,
@@ -220,7 +219,7 @@ def finished(out: Path, request: GenerateRequest) -> Progress | None:
     meta = json.loads(meta_path.read_text())
     if not meta.get("complete"):
         return None
-    changed = changed_keys({**LEGACY_REQUEST, **meta["request"]}, request.to_dict())
+    changed = changed_keys(GenerateRequest.upgrade(meta["request"]), request.to_dict())
     if changed:
         raise SettingsChanged(
             f"{out} holds a finished dataset made with different settings ({', '.join(changed)}); "
@@ -269,7 +268,7 @@ def generate(
         return done
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     with folder.locked(owner=out):
-        folder.claim(request.to_dict(), name="request.json", owner=out, legacy=LEGACY_REQUEST)
+        folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)
         recover(out, folder.path("publish.json"))
         folder.clean(*LEFTOVERS)
         width_file = folder.path("sim_state_width.json")
@@ -307,5 +306,7 @@ def check_output(request: GenerateRequest, out: Path) -> Progress | None:
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     _check_out_dir(out, folder)
     folder.check_free(owner=out)
-    folder.claim(request.to_dict(), name="request.json", owner=out, legacy=LEGACY_REQUEST, record=False)
+    folder.claim(
+        request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy, record=False
+    )
     return None

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from libero_data.config import Config
 from libero_data.errors import InputError
@@ -24,20 +24,21 @@ STORED_INITS = 50
 #: stream (``sampler``: evaluation never uses them), or LIBERO's stored init states (``stored``:
 #: the ones the paper's evaluation uses) and the sampler beyond the 50th episode.
 STARTS = ("sampler", "stored")
-#: What requests made before a field existed did (read from their saved ``request.json``).
-LEGACY_REQUEST = {
-    "starts": "stored",
-    "features": "libero-data",
-    "cameras": list(CAMERAS),
-    "source": "",
-    "render_quality": "full",
-    "arm_noise": 0.0,  # sampler starts then began from LIBERO's one arm pose
-}
 
 
 @dataclass(frozen=True)
 class GenerateRequest(Config):
     """What to generate; equal requests give equal datasets."""
+
+    #: What requests made before a field existed did (read from their saved ``request.json``).
+    legacy: ClassVar[dict[str, Any]] = {
+        "starts": "stored",
+        "features": "libero-data",
+        "cameras": list(CAMERAS),
+        "source": "",
+        "render_quality": "full",
+        "arm_noise": 0.0,  # sampler starts then began from LIBERO's one arm pose
+    }
 
     suite: str
     tasks: tuple[int, ...]

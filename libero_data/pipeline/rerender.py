@@ -18,7 +18,7 @@ import numpy as np
 from libero_data.errors import DatasetError
 from libero_data.pipeline.episodes import search_path
 from libero_data.pipeline.generate import Progress, check_output, generate
-from libero_data.pipeline.request import LEGACY_REQUEST, GenerateRequest, Slot, slots_of
+from libero_data.pipeline.request import GenerateRequest, Slot, slots_of
 from libero_data.pipeline.resimulate import recorded_machines, stored_episode
 from libero_data.pipeline.validate import episode_table
 from libero_data.runtime.files import read_json, read_json_lines, save_record
@@ -43,7 +43,7 @@ def rerender_request(
         raise DatasetError(
             f"{source} is not complete yet; finish generating it first (run its command again)"
         )
-    request = GenerateRequest.from_dict({**LEGACY_REQUEST, **saved["request"]})
+    request = GenerateRequest.from_dict(saved["request"])
     return request.replace(
         image_size=image_size,
         features=features,
@@ -113,7 +113,7 @@ def rerender(
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     if not (out / "meta" / "libero.json").is_file():  # not finished before
         with folder.locked(owner=out):
-            folder.claim(request.to_dict(), name="request.json", owner=out, legacy=LEGACY_REQUEST)
+            folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)
             for key, record in _records(source, request).items():
                 path = folder.root / search_path(key)
                 if not path.is_file():

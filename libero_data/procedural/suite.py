@@ -20,7 +20,7 @@ import json
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -48,9 +48,8 @@ class ProceduralSettings(Config):
     tasks: tuple[str, ...] = ()  # with variants_of: which tasks (default all)
     levels: tuple[int, ...] = (1,)  # with variants_of: severity levels 1..5 (libero_data.perturb.levels)
 
-
-#: What settings saved before a field existed meant (a suite made then continues).
-LEGACY_SETTINGS: dict[str, Any] = {"levels": [1]}
+    #: What settings saved before a field existed meant (a suite made then continues).
+    legacy: ClassVar[dict[str, Any]] = {"levels": [1]}
 
 
 @dataclass
@@ -147,7 +146,7 @@ def make_suite(
             if on_verdict:
                 on_verdict(verdict)
         return done
-    folder.claim(settings.to_dict(), owner=out, legacy=LEGACY_SETTINGS)
+    folder.claim(settings.to_dict(), owner=out, legacy=ProceduralSettings.legacy)
     candidates = _candidates(settings)
     verdicts: dict[int, Verdict] = {}
     states: dict[int, np.ndarray] = {}
@@ -191,7 +190,7 @@ def _finished(out: Path, folder: WorkFolder, settings: ProceduralSettings) -> li
     manifest, report = out / SUITE_MANIFEST, out / "procedural_report.json"
     if folder.root.exists() or not manifest.is_file() or not report.is_file():
         return None
-    made = {**LEGACY_SETTINGS, **json.loads(manifest.read_text())["generator"]["settings"]}
+    made = ProceduralSettings.upgrade(json.loads(manifest.read_text())["generator"]["settings"])
     changed = changed_keys(made, settings.to_dict())
     if changed:
         raise SettingsChanged(

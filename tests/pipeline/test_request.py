@@ -9,7 +9,7 @@ import pytest
 
 from libero_data.errors import InputError, SettingsChanged
 from libero_data.pipeline.describe import start_note
-from libero_data.pipeline.request import LEGACY_REQUEST, GenerateRequest
+from libero_data.pipeline.request import GenerateRequest
 from libero_data.runtime.folder import WorkFolder
 from libero_data.sim.arm import ARM_INIT_NOISE
 
@@ -40,10 +40,10 @@ def test_a_dataset_begun_before_starts_existed_continues_with_stored_starts(tmp_
     (tmp_path / "request.json").write_text(json.dumps(old))
     folder = WorkFolder(tmp_path, "dataset")
     stored = GenerateRequest("libero_goal", (0,), starts="stored").to_dict()
-    assert folder.claim(stored, name="request.json", legacy=LEGACY_REQUEST) is not None
+    assert folder.claim(stored, name="request.json", legacy=GenerateRequest.legacy) is not None
     with pytest.raises(SettingsChanged, match=r"\(starts\)"):
         folder.claim(
-            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=LEGACY_REQUEST
+            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=GenerateRequest.legacy
         )
 
 
@@ -65,10 +65,10 @@ def test_a_dataset_begun_before_arm_noise_existed_continues_without_it(tmp_path:
     folder = WorkFolder(tmp_path, "dataset")
     with pytest.raises(SettingsChanged, match=r"\(arm_noise\); arm_noise 0.0 there, 0.02 asked"):
         folder.claim(
-            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=LEGACY_REQUEST
+            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=GenerateRequest.legacy
         )
     fixed = GenerateRequest("libero_goal", (0,), arm_noise=0.0).to_dict()
-    assert folder.claim(fixed, name="request.json", legacy=LEGACY_REQUEST) is not None
+    assert folder.claim(fixed, name="request.json", legacy=GenerateRequest.legacy) is not None
 
 
 def test_the_cli_default_arm_noise_is_the_stored_states() -> None:
