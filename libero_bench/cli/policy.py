@@ -101,7 +101,7 @@ def eval_cmd(
         tuple(split_list(tasks)),
         stored,
         heldout,
-        parse_step_limit(max_steps),
+        max_steps=parse_step_limit(max_steps),
         render_quality=render_quality,
         image_size=image_size,
         replan_steps=replan_steps,

@@ -28,37 +28,34 @@ from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make
 from libero_bench.rollouts.loop import Execution
 from libero_bench.rollouts.sources import PolicySource, is_server, policy_source
 from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
-from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.pipeline.request import state_width
+from libero_data.rollout import RolloutSettings
 from libero_data.runtime.files import read_json, write_json, write_text
 from libero_data.runtime.folder import WorkFolder
-from libero_data.tasks.horizons import SUITE, StepLimit, check_step_limit, step_limit
+from libero_data.tasks.horizons import step_limit
 
 EVAL_FORMAT = "libero-bench-eval/1"
 
 
 @dataclass(frozen=True)
-class EvalRequest(Config):
+class EvalRequest(RolloutSettings):
     """What to evaluate: a LeRobot policy folder or a policy server (``ws://HOST:PORT``) on
-    tasks, from how many starts of each kind. For a server, ``image_size`` is the camera size
-    sent (default: the size the server's metadata names, else 224, openpi's) and
-    ``replan_steps`` the actions executed of each chunk it returns (openpi's LIBERO client: 5)."""
+    tasks, from how many starts of each kind, with the shared rollout settings (``max_steps``,
+    ``settle``, ``render_quality``: :class:`~libero_data.rollout.RolloutSettings`). For a server,
+    ``image_size`` is the camera size sent (default: the size the server's metadata names, else
+    224, openpi's) and ``replan_steps`` the actions executed of each chunk it returns (openpi's
+    LIBERO client: 5)."""
 
     policy: str
     tasks: tuple[str, ...]
     stored: int = 20
     heldout: int = 20
-    max_steps: StepLimit = SUITE  # steps, or each task's suite limit (libero_data.tasks.horizons)
-    settle: int = 10
-    render_quality: str = "full"
     image_size: int | None = None
     replan_steps: int = 5
 
     def __post_init__(self) -> None:
-        from libero_data.sim.env import check_render_quality
-
-        check_render_quality(self.render_quality)
+        super().__post_init__()
         if self.replan_steps < 1:
             raise InputError("execute at least one action of each chunk", field="replan_steps")
         if self.image_size is not None and self.image_size < 8:
@@ -72,7 +69,6 @@ class EvalRequest(Config):
                 raise InputError(f"the number of {name} starts must not be negative", field=name)
         if self.stored + self.heldout == 0:
             raise InputError("evaluate from at least one start", field="stored")
-        check_step_limit(self.max_steps)
 
 
 def resolve_tasks(refs: Sequence[str]) -> list[Any]:

@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 from libero_bench.analysis.intervals import Rate
-from libero_data.config import Config
 from libero_data.errors import InputError
-from libero_data.tasks.horizons import SUITE, StepLimit, check_step_limit, limit_text, step_limit
+from libero_data.rollout import RolloutSettings
+from libero_data.tasks.horizons import SUITE, limit_text
 
 #: The sweep's files, inside its folder.
 VARIANTS = "variants"
@@ -31,17 +31,16 @@ REPORT = "robustness"
 
 
 @dataclass(frozen=True)
-class SweepRequest(Config):
-    """What to sweep: source tasks, kinds and levels, rollouts per cell, rollout settings."""
+class SweepRequest(RolloutSettings):
+    """What to sweep: source tasks, kinds and levels, rollouts per cell, and the shared rollout
+    settings (``max_steps``: steps, or each source task's suite limit; ``settle``;
+    ``render_quality``: :class:`~libero_data.rollout.RolloutSettings`)."""
 
     tasks: tuple[str, ...]
     kinds: tuple[str, ...]
     levels: tuple[int, ...] = (1, 2, 3, 4, 5)
     rollouts: int = 10  # per cell, from held-out placements (the same at every level)
-    max_steps: StepLimit = SUITE  # steps, or each source task's suite limit (libero_data.tasks.horizons)
-    settle: int = 10
     seed: int = 0
-    render_quality: str = "full"
     image_size: int | None = (
         None  # a served policy: the camera size sent (libero_bench.evaluation.policy_eval)
     )
@@ -50,6 +49,7 @@ class SweepRequest(Config):
     def __post_init__(self) -> None:
         from libero_data.perturb.levels import KINDS, LEVELS
 
+        super().__post_init__()
         if not self.tasks:
             raise InputError("no tasks to perturb", field="tasks")
         for kind in self.kinds:
@@ -63,13 +63,12 @@ class SweepRequest(Config):
             raise InputError(f"levels must be among 1..5, got {self.levels}", field="levels")
         if self.rollouts <= 0:
             raise InputError("rollouts per cell must be positive", field="rollouts")
-        check_step_limit(self.max_steps)
 
     def step_limits(self) -> dict[str, int]:
         """Per source task name: the steps its rollouts (and its variants') may take."""
         from libero_data.tasks import get_task
 
-        return {task.name: step_limit(self.max_steps, task.suite) for task in map(get_task, self.tasks)}
+        return {task.name: self.steps_for(task.suite) for task in map(get_task, self.tasks)}
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from libero_bench.sizes import SIZES
 from libero_data.config import Config
 from libero_data.errors import InputError
 from libero_data.registry import Registry
+from libero_data.rollout import RolloutSettings
 from libero_data.tasks.horizons import SUITE, StepLimit, is_step_limit
 
 #: Model sizes every policy has (libero_bench.policies.config_base); kept here so that
@@ -58,6 +59,13 @@ class TrainPreset(Config):
     demos_per_task: int | None = None  # None: all demonstrations of the task
     augment: bool | None = None  # training-time image augmentation; None: the policy size's default
     seed: int = 10000
+
+    def rollout_settings(self) -> RolloutSettings:
+        """The evaluation rounds' rollout settings (the ``eval_*`` fields), as every evaluation
+        takes them (:class:`~libero_data.rollout.RolloutSettings`)."""
+        return RolloutSettings(
+            max_steps=self.eval_max_steps, settle=self.eval_settle, render_quality=self.eval_render_quality
+        )
 
     def __post_init__(self) -> None:
         for field in (

@@ -62,6 +62,7 @@ class EvaluationRounds:
     ) -> list[RolloutJob]:
         """The rollouts of a round on the tasks at ``group``."""
         p = self.plan.preset
+        rollout = p.rollout_settings()
         tasks = self.eval_tasks()
         jobs = []
         counts = {STORED: p.eval_rollouts, HELDOUT: p.eval_heldout}
@@ -73,8 +74,8 @@ class EvaluationRounds:
                         tasks[pos],
                         r,
                         key=key,
-                        settle=p.eval_settle,
-                        max_steps=p.eval_max_steps,
+                        settle=rollout.settle,
+                        max_steps=rollout.max_steps,
                         image_size=p.image_size,
                         sim_state_width=self.plan.source.sim_state_width,
                         shard_dir=self.folder.shard(key).relative_to(self.folder.root),
@@ -90,7 +91,7 @@ class EvaluationRounds:
                             "policy": self.plan.request.policy,
                         },
                         start=start,
-                        render_quality=p.eval_render_quality,
+                        render_quality=rollout.render_quality,
                     )
                 )
         return jobs

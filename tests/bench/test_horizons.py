@@ -17,6 +17,7 @@ from libero_bench.robustness.cells import SweepRequest
 from libero_bench.rollouts.jobs import EvalTask, make_job
 from libero_bench.train.presets import PAPER, QUICK, SMOKE, TrainPreset
 from libero_data.errors import InputError
+from libero_data.rollout import RolloutSettings
 from libero_data.tasks.horizons import (
     HUMAN_LONGEST,
     OTHER_LIMIT,
@@ -142,9 +143,31 @@ def test_the_lerobot_plugin_takes_the_suites_limit_unless_told() -> None:
 
     assert LiberoDataEnvConfig().episode_length is None
     assert LiberoDataGymEnv("libero_10/0")._max_episode_steps == 520
-    assert LiberoDataGymEnv("libero_object/0", max_steps=33)._max_episode_steps == 33
+    assert LiberoDataGymEnv("libero_object/0", rollout=RolloutSettings(max_steps=33))._max_episode_steps == 33
     with pytest.raises(ValueError, match="episode_length"):
         LiberoDataEnvConfig(episode_length=0)
+    # the plugin's flags are the rollout settings every evaluation shares
+    config = LiberoDataEnvConfig(episode_length=90, settle=3, render_quality="fast")
+    assert config.gym_kwargs["rollout"] == RolloutSettings(max_steps=90, settle=3, render_quality="fast")
+    assert LiberoDataEnvConfig().rollout_settings() == RolloutSettings()
+
+
+def test_one_rollout_settings_config_serves_every_evaluation() -> None:
+    settings = RolloutSettings(max_steps=123, settle=4, render_quality="fast")
+    assert (
+        QUICK.replace(eval_max_steps=123, eval_settle=4, eval_render_quality="fast").rollout_settings()
+        == settings
+    )
+    request = EvalRequest("p", ("libero_10/0",), max_steps=123, settle=4, render_quality="fast")
+    sweep = SweepRequest(
+        tasks=("libero_10/0",), kinds=("camera",), max_steps=123, settle=4, render_quality="fast"
+    )
+    assert request.rollout_settings() == sweep.rollout_settings() == settings
+    for bad in ({"settle": -1}, {"render_quality": "ultra"}, {"max_steps": 0}):
+        with pytest.raises(InputError):
+            RolloutSettings(**bad)
+        with pytest.raises(InputError):
+            EvalRequest("p", ("libero_10/0",), **bad)
 
 
 @pytest.mark.parametrize("command", ["eval", "robustness"])

@@ -42,6 +42,7 @@ class LiberoDataEnvConfig(EnvConfig):
             raise ValueError(f"--env.render_quality must be full or fast, got {self.render_quality!r}")
         if self.image_size <= 0 or (self.episode_length is not None and self.episode_length <= 0):
             raise ValueError("--env.image_size and --env.episode_length must be positive")
+        self.rollout_settings()  # the rollout settings every evaluation shares, checked
         image = PolicyFeature(type=FeatureType.VISUAL, shape=(self.image_size, self.image_size, 3))
         self.features = {
             ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(7,)),
@@ -56,15 +57,22 @@ class LiberoDataEnvConfig(EnvConfig):
             "agent_pos": OBS_STATE,
         }
 
+    def rollout_settings(self) -> Any:
+        """``--env.episode_length``, ``--env.settle`` and ``--env.render_quality`` as the rollout
+        settings libero-bench's evaluations share (``libero_data.rollout.RolloutSettings``)."""
+        from libero_data.rollout import RolloutSettings
+        from libero_data.tasks.horizons import SUITE
+
+        limit = SUITE if self.episode_length is None else self.episode_length
+        return RolloutSettings(max_steps=limit, settle=self.settle, render_quality=self.render_quality)
+
     @property
     def gym_kwargs(self) -> dict[str, Any]:
         return {
             "image_size": self.image_size,
             "starts": self.starts,
             "keys": (self.agentview_key, self.wrist_key),
-            "max_steps": self.episode_length,
-            "settle": self.settle,
-            "render_quality": self.render_quality,
+            "rollout": self.rollout_settings(),
         }
 
     def create_envs(

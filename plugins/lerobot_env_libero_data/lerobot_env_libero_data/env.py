@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+
+if TYPE_CHECKING:
+    from libero_data.rollout import RolloutSettings
 
 
 @dataclass(frozen=True)
@@ -58,22 +61,21 @@ class LiberoDataGymEnv(gym.Env):
         image_size: int = 256,
         starts: str = "stored",
         keys: tuple[str, str] = ("image", "image2"),
-        max_steps: int | None = None,
-        settle: int = 10,
-        render_quality: str = "full",
+        rollout: RolloutSettings | None = None,
     ) -> None:
+        from libero_data.rollout import RolloutSettings
         from libero_data.tasks import get_task
-        from libero_data.tasks.horizons import SUITE, step_limit
 
+        rollout = rollout or RolloutSettings()  # the task's suite limit, settle 10, full images
         super().__init__()
         self._task = get_task(task_ref)
         self.task = self._task.name
         self.task_description = self._task.language
         self.render_mode = "rgb_array"
-        # None: the task's suite limit (LeRobot's LIBERO limits; libero_data.tasks.horizons).
-        self._max_episode_steps = step_limit(SUITE if max_steps is None else max_steps, self._task.suite)
-        self._image_size, self._starts, self._keys, self._settle = image_size, starts, keys, settle
-        self._render_quality = render_quality
+        # by default the task's suite limit (LeRobot's LIBERO limits; libero_data.tasks.horizons)
+        self._max_episode_steps = rollout.steps_for(self._task.suite)
+        self._image_size, self._starts, self._keys, self._settle = image_size, starts, keys, rollout.settle
+        self._render_quality = rollout.render_quality
         self._next = episode_index
         self._stride = stride
         self._env: Any = None
