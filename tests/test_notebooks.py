@@ -45,6 +45,7 @@ def test_quickstart(tmp_path: Path) -> None:
 
 
 @pytest.mark.sim
+@pytest.mark.slow  # a lifelong run end to end, as test_bench_run does; run after the default suite
 def test_lifelong_benchmark(tmp_path: Path, tiny_dataset: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # the session's tiny dataset instead of generating one, and a shorter run
     monkeypatch.setenv("LIBERO_BENCH_NOTEBOOK_DATA", str(tiny_dataset))

@@ -13,6 +13,7 @@ from tests.pipeline.conftest import TINY, data_table, run_cli
 pytestmark = [pytest.mark.sim, pytest.mark.xdist_group("ray")]
 
 
+@pytest.mark.slow  # Ray starts in ~a minute; scripts/test runs it after the default suite
 def test_ray_executor_writes_the_same_dataset_as_local_workers(tiny_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "on_ray"
     result = run_cli("generate", *TINY, "--out", str(out), "--executor", "ray", "--workers", "2")

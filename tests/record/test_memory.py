@@ -36,6 +36,7 @@ print(sum(trace[-10:]) / 10 - sum(trace[10:20]) / 10)
 """
 
 
+@pytest.mark.slow  # hundreds of shards written; run after the default suite
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc and /proc")
 def test_shard_writing_does_not_grow_the_process() -> None:
     tests = str(Path(__file__).parent)
