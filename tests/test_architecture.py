@@ -255,3 +255,17 @@ def test_old_files_are_read_one_way() -> None:
         f"{m}: {n}" for m, path in MODULES.items() for n in _assigned_names(path) if n.startswith("LEGACY")
     ]
     assert found == []
+
+
+def test_the_simulator_applies_perturbations_and_perturbations_need_no_simulator() -> None:
+    """One direction: ``sim`` calls the kinds' hooks (``perturb.apply``); no kind, nor anything
+    else in ``perturb``, imports ``sim`` (contact sheets that render live in ``procedural``)."""
+    graph, _ = _imports()
+    back = sorted(
+        f"{m} -> {t}"
+        for m, ts in graph.items()
+        if m.startswith("libero_data.perturb")
+        for t in ts
+        if t.startswith("libero_data.sim")
+    )
+    assert back == []
