@@ -74,13 +74,16 @@ def strip(value):
 def same(x: Path, y: Path) -> bool:
     if x.read_bytes() == y.read_bytes():
         return True
-    if x.suffix in (".json", ".jsonl"):
-        try:
-            lines_x = [strip(json.loads(l)) for l in x.read_text().splitlines() if l.strip()]
-            lines_y = [strip(json.loads(l)) for l in y.read_text().splitlines() if l.strip()]
-        except ValueError:
-            return False
+    if x.suffix == ".json":
+        return strip(json.loads(x.read_text())) == strip(json.loads(y.read_text()))
+    if x.suffix == ".jsonl":
+        lines_x = [strip(json.loads(line)) for line in x.read_text().splitlines() if line.strip()]
+        lines_y = [strip(json.loads(line)) for line in y.read_text().splitlines() if line.strip()]
         return lines_x == lines_y
+    if x.suffix == ".safetensors":  # the header's key order was the hash map's before it was sorted
+        from libero_bench.runs.state_files import canonical_header
+
+        return canonical_header(x.read_bytes()) == canonical_header(y.read_bytes())
     if x.suffix == ".md":
         return x.read_text().replace(str(a), "<out>") == y.read_text().replace(str(b), "<out>")
     return False
@@ -97,7 +100,10 @@ for rel in sorted(files_a & files_b):
         equal.append(rel)
     else:
         differ.append(rel)
-print(f"{len(equal)} files the same (byte for byte, or JSON equal once times and paths are left out)")
+print(
+    f"{len(equal)} files the same (byte for byte; JSON equal once times and the output folder's "
+    "path are left out; safetensors equal once their header's keys are sorted)"
+)
 print(f"{len(timed)} files of times (not compared): " + ", ".join(sorted({r.name for r in timed})))
 for rel in only:
     print(f"only in {'before' if rel in files_a else 'after'}: {rel}")

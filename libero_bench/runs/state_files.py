@@ -53,7 +53,22 @@ def save_state(path: Path, state: Any, *, kind: str) -> Path:
     tensors: dict[str, torch.Tensor] = {}
     tree = _encode(state, tensors)
     metadata = {KIND_KEY: kind, TREE_KEY: json.dumps(tree, separators=(",", ":"), allow_nan=False)}
-    return write_bytes(path, save(tensors, metadata=metadata))
+    return write_bytes(path, canonical_header(save(tensors, metadata=metadata)))
+
+
+def canonical_header(blob: bytes) -> bytes:
+    """``blob`` (a safetensors file) with its header's keys in sorted order: safetensors writes
+    the metadata from a hash map, whose order changes from one process to the next, so the same
+    state gave other bytes. Offsets count from the data, which stays as it is."""
+    size = int.from_bytes(blob[:8], "little")
+    header = json.loads(blob[8 : 8 + size])
+    ordered: dict[str, Any] = {}
+    if "__metadata__" in header:
+        ordered["__metadata__"] = dict(sorted(header.pop("__metadata__").items()))
+    ordered.update(sorted(header.items()))
+    text = json.dumps(ordered, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 8)  # the data starts 8-byte aligned, as safetensors pads it
+    return len(text).to_bytes(8, "little") + text + blob[8 + size :]
 
 
 def load_state(path: Path, *, kind: str, device: str = "cpu") -> Any:

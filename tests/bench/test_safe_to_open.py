@@ -95,6 +95,38 @@ def test_a_state_comes_back_as_it_was(tmp_path: Path) -> None:
         save_state(tmp_path / "bad.safetensors", {"x": object()}, kind=CHECKPOINT)
 
 
+def test_the_same_state_is_the_same_bytes_in_any_process(tmp_path: Path) -> None:
+    """safetensors writes its header from a hash map whose order changes from one process to
+    the next; the header is rewritten in sorted order, so a checkpoint's bytes depend on the
+    state alone (and safetensors still reads it)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, torch\n"
+        "from libero_bench.runs.state_files import save_state\n"
+        "state = {'b': torch.arange(5.0), 'a': {'z': torch.ones(3, dtype=torch.uint8), 'y': 'text'}}\n"
+        "save_state(__import__('pathlib').Path(sys.argv[1]), state, kind='libero-bench checkpoint')\n"
+    )
+    paths = [tmp_path / f"{i}.safetensors" for i in range(4)]
+    for path in paths:
+        subprocess.run([sys.executable, "-c", code, str(path)], check=True)
+    assert len({p.read_bytes() for p in paths}) == 1
+    back = load_state(paths[0], kind=CHECKPOINT)
+    assert torch.equal(back["b"], torch.arange(5.0)) and back["a"]["y"] == "text"
+    import json
+
+    raw = paths[0].read_bytes()
+    keys: list[list[str]] = []
+    json.loads(
+        raw[8 : 8 + int.from_bytes(raw[:8], "little")],
+        object_pairs_hook=lambda pairs: keys.append([k for k, _ in pairs]),
+    )
+    top = keys[-1]  # the header itself, parsed last; the metadata's keys, parsed before it
+    meta = next(k for k in keys if "libero_bench_kind" in k)
+    assert top[0] == "__metadata__" and top[1:] == sorted(top[1:]) and meta == sorted(meta)
+
+
 def test_bare_weights_and_damaged_files(tmp_path: Path) -> None:
     from safetensors.torch import save_file
 
