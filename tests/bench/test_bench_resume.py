@@ -4,16 +4,12 @@ Apart from tests/bench/test_bench_run.py, whose tests share one xdist worker wit
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from tests.bench.test_bench_run import RUN_ARGS, _results, bench
+from tests.bench.test_bench_run import RUN_ARGS, _results, bench, kill_once
 
 pytestmark = pytest.mark.sim
 
@@ -28,18 +24,9 @@ def test_a_task_interrupted_between_epochs_goes_on_after_its_last_finished_epoch
     assert bench("run", *args, "--out", str(reference)).returncode == 0
     out = tmp_path / "interrupted"
     command = [sys.executable, "-m", "libero_bench.cli", "run", *args, "--out", str(out)]
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
-    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-    deadline = time.monotonic() + 600
     timings = out / "timings.jsonl"
-    try:  # killed once epoch 2 of 3 has finished: its state or epoch 1's is on disk
-        while not (timings.is_file() and "epoch 2/3" in timings.read_text()):
-            assert proc.poll() is None, "the run ended before its second epoch"
-            assert time.monotonic() < deadline
-            time.sleep(0.05)
-    finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
+    # killed once epoch 2 of 3 has finished: its state or epoch 1's is on disk
+    kill_once(command, lambda: timings.is_file() and "epoch 2/3" in timings.read_text(), "its second epoch")
     state = out / "checkpoints" / "task_000.epoch.safetensors"
     assert state.is_file() and not (out / "checkpoints" / "task_000.safetensors").exists()
     result = bench("run", *args, "--out", str(out))

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +61,21 @@ def bench_run(tiny_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> P
     assert "er + resnet_t" in result.stdout  # the closing table
     print(f"bench run: {time.monotonic() - started:.0f} s")
     return out
+
+
+def kill_once(command: list[str], ready: Callable[[], bool], what: str) -> None:
+    """Start ``command`` and SIGKILL it as soon as ``ready()`` holds (within 10 minutes)."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    deadline = time.monotonic() + 600
+    try:
+        while not ready():
+            assert proc.poll() is None, f"the run ended before {what}"
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
 
 
 def _results(run: Path) -> dict:
@@ -313,17 +329,7 @@ def test_resume_after_sigkill_gives_the_same_results(
     # Two environments, as bench_run: the policy's batched pass is then the same, bit for bit
     # (another batch size may change the actions' last bits: README, "Which outcomes may differ").
     command += ["--workers", "2", "--out", str(out)]
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "SVT_LOG": "1"}
-    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-    deadline = time.monotonic() + 600
-    try:
-        while not (out / "checkpoints" / "task_000.safetensors").is_file():
-            assert proc.poll() is None, "the run ended before its first checkpoint"
-            assert time.monotonic() < deadline
-            time.sleep(0.1)
-    finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
+    kill_once(command, (out / "checkpoints" / "task_000.safetensors").is_file, "its first checkpoint")
     partial = _results(out)
     assert not partial["complete"] and partial["stage"][1] == ""
     assert not (out / "checkpoints" / "task_001.safetensors").exists()
