@@ -165,17 +165,20 @@ def test_generate_variants_of_the_new_kinds_writes_a_dataset_that_replays(tmp_pa
     from libero_data.pipeline.validate import validate
     from tests.pipeline.conftest import run_cli
 
+    # One kind per hook the simulator calls: the built scene (camera; lighting and texture change
+    # it the same way), the arm's start (robot_init), the observations (noise).
+    kinds = ("camera", "robot_init", "noise")
     out = tmp_path / "variants"
-    args = ["--variants-of", "libero_object/0", "--kinds", ",".join(ENV_KINDS), "--level", "3"]
+    args = ["--variants-of", "libero_object/0", "--kinds", ",".join(kinds), "--level", "3"]
     args += ["--episodes-per-task", "1", "--image-size", "64", "--workers", "1", "--out", str(out)]
     result = run_cli("generate", *args)
     assert result.returncode == 0, result.stderr[-3000:]
     tasks = json.loads((out / "suite.json").read_text())["tasks"]
-    assert [t["template"] for t in tasks] == [f"variant:{k}:3" for k in ENV_KINDS]
-    report = validate(out, resimulate=5)
-    assert not report.issues and report.resimulated_ok == 5
+    assert [t["template"] for t in tasks] == [f"variant:{k}:3" for k in kinds]
+    report = validate(out, resimulate=3)
+    assert not report.issues and report.resimulated_ok == 3
     card = (out / "README.md").read_text()
-    for kind in ENV_KINDS:
+    for kind in kinds:
         assert f"{kind} level 3 (" in card, kind
     # Each task's BDDL in the dataset carries the record that reproduces it.
     bddl = next((out / "meta" / "bddl").glob("*__camera_l3.bddl")).read_text()
