@@ -21,6 +21,7 @@ into every worker instead.
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -181,9 +182,14 @@ class DemoDataset:
     def training_starts(self, task: DemoTask) -> tuple[set[int], set[int]] | None:
         """Where the task's demonstrations started: the stored init state indices and the
         sampler reset seeds; None for a dataset that does not record it (not made by libero-data)."""
+        return self.starts_of(task.episodes)
+
+    def starts_of(self, episodes: Iterable[int]) -> tuple[set[int], set[int]] | None:
+        """Where these episodes started (as :meth:`training_starts`); None where one of them
+        does not record it."""
         stored: set[int] = set()
         seeds: set[int] = set()
-        for i in task.episodes:
+        for i in episodes:
             row = self.episode_meta[i]
             if "init_index" not in row:
                 return None

@@ -85,12 +85,11 @@ class MixPlan:
         episode without a record of it is refused when the plan is made)."""
         stored: set[int] = set()
         seeds: set[int] = set()
-        for e in self.episodes.get(position, []):
-            row = self.sources[e.dataset].episode_meta[e.episode]
-            if int(row["init_index"]) >= 0:
-                stored.add(int(row["init_index"]))
-            elif "reset_seed" in row:
-                seeds.add(int(row["reset_seed"]))
+        for d, source in enumerate(self.sources):
+            found = source.starts_of(e.episode for e in self.episodes.get(position, []) if e.dataset == d)
+            if found is not None:  # always recorded: plan_mix refuses a dataset that does not
+                stored |= found[0]
+                seeds |= found[1]
         return stored, seeds
 
     def config(self, tasks: Sequence[DemoTask]) -> dict[str, Any]:
@@ -257,8 +256,7 @@ def mixed_seeds(config: dict[str, Any]) -> dict[str, set[int]]:
     out: dict[str, set[int]] = {}
     for name, entry in mix["tasks"].items():
         seeds = out.setdefault(name, set())
-        for d, episode in entry["episodes"]:
-            row = sources[d].episode_meta[episode]
-            if int(row.get("init_index", -1)) < 0 and "reset_seed" in row:
-                seeds.add(int(row["reset_seed"]))
+        for d, source in enumerate(sources):
+            found = source.starts_of(episode for k, episode in entry["episodes"] if k == d)
+            seeds |= found[1] if found is not None else set()
     return out

@@ -143,9 +143,7 @@ class RunResults:
             post_losses=[[] for _ in range(k)],
             pruned=[None] * k,
             stage=[""] * k,
-            curve_heldout=[[math.nan] * e for _ in range(k)],
-            after_heldout=[[math.nan] * k for _ in range(k)],
-            pruned_heldout=[None] * k,
+            **_heldout_grids(k, e),
         )
 
     @property
@@ -181,15 +179,11 @@ class RunResults:
         """``results.json`` as any version wrote it: results written before held-out starts existed
         get NaN curves from them (the one way results read what earlier versions wrote)."""
         out = dict(data)
-        k, e = len(out["tasks"]), len(out["eval_epochs"])
         out.setdefault("rollouts", [])
         out.setdefault("complete", False)
-        if not out.get("curve_heldout"):
-            out["curve_heldout"] = [[math.nan] * e for _ in range(k)]
-        if not out.get("after_heldout"):
-            out["after_heldout"] = [[math.nan] * k for _ in range(k)]
-        if not out.get("pruned_heldout"):
-            out["pruned_heldout"] = [None] * k
+        for key, empty in _heldout_grids(len(out["tasks"]), len(out["eval_epochs"])).items():
+            if not out.get(key):
+                out[key] = empty
         return out
 
     @classmethod
@@ -211,6 +205,15 @@ class RunResults:
             after_heldout=_none_to_nan(data["after_heldout"]),
             pruned_heldout=list(data["pruned_heldout"]),
         )
+
+
+def _heldout_grids(k: int, e: int) -> dict[str, Any]:
+    """The held-out results of ``k`` tasks and ``e`` evaluation points, none measured yet."""
+    return {
+        "curve_heldout": [[math.nan] * e for _ in range(k)],
+        "after_heldout": [[math.nan] * k for _ in range(k)],
+        "pruned_heldout": [None] * k,
+    }
 
 
 @dataclass(frozen=True)

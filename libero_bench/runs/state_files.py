@@ -37,13 +37,17 @@ MIGRATE_HINT = (
 
 
 def is_pickle(path: Path) -> bool:
-    """Whether ``path`` starts like a ``torch.save`` file or a pickle."""
+    """Whether ``path`` starts like a ``torch.save`` file or a pickle. A safetensors file starts
+    with its header's length (8 bytes, little-endian, whose first byte may be 0x80 too) and then
+    the header's ``{``: that is never taken for a pickle."""
     try:
         with Path(path).open("rb") as f:
-            head = f.read(4)
+            head = f.read(9)
     except OSError:
         return False
-    return head == _ZIP or head[:1] == _PICKLE
+    if head[8:9] == b"{":
+        return False
+    return head[:4] == _ZIP or head[:1] == _PICKLE
 
 
 def save_state(path: Path, state: Any, *, kind: str) -> Path:

@@ -13,11 +13,13 @@ the values drawn from these ranges, so it is reproduced from its BDDL file alone
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 LEVELS = (1, 2, 3, 4, 5)
 
 
+@functools.cache
 def _lists() -> dict[str, Any]:
     from libero_data.perturb.kinds import all_kinds
 

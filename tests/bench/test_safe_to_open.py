@@ -260,3 +260,14 @@ def test_initial_weights_must_fit_the_policy(er_run: Path, tiny_dataset: Path, t
     save_file({"layer.weight": torch.ones(2)}, str(wrong))
     with pytest.raises(ValueError, match=r"wrong.safetensors does not fit the resnet_t policy"):
         plan_run(run_request(tiny_dataset, init_checkpoint=wrong))
+
+
+def test_a_safetensors_header_of_128_bytes_is_not_taken_for_a_pickle(tmp_path: Path) -> None:
+    """A safetensors file starts with its header's length: 128 bytes begins with 0x80, the byte
+    a pickle starts with; the header's ``{`` after it tells them apart."""
+    header = b'{"__metadata__":{"k":"v"}}'.ljust(128)
+    safetensors_like = tmp_path / "a.safetensors"
+    safetensors_like.write_bytes((128).to_bytes(8, "little") + header)
+    pickled = tmp_path / "b.pt"
+    pickled.write_bytes(b"\x80\x02}q\x00.")
+    assert not is_pickle(safetensors_like) and is_pickle(pickled)
