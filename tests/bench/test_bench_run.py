@@ -23,8 +23,8 @@ from libero_bench.analysis import metrics
 # Ray instances at once would crowd 2 cores and memory.
 pytestmark = [pytest.mark.sim, pytest.mark.xdist_group("ray")]
 
-#: The smoke preset, shortened: 2 tasks x (epochs 0, 1) x (2 stored + 1 held-out) rollouts, and
-#: 2 + 1 after-task rollouts.
+#: The smoke preset, shortened: 2 tasks x (epochs 0, 1, 2) x (2 stored + 1 held-out) rollouts,
+#: and 2 + 1 after-task rollouts. Two epochs so that a run can be killed in the middle of a task.
 RUN_ARGS = [
     "--algo",
     "er",
@@ -33,7 +33,7 @@ RUN_ARGS = [
     "--preset",
     "smoke",
     "--set",
-    "epochs=1",
+    "eval_every=2",
     "--set",
     "eval_max_steps=6",
     "--set",
@@ -91,7 +91,7 @@ def test_run_folder_and_results(bench_run: Path) -> None:
     from libero_data.numerics import machine_fingerprint
 
     config = json.loads((bench_run / "config.json").read_text())
-    assert config["preset"]["epochs"] == 1 and config["preset"]["eval_max_steps"] == 6
+    assert config["preset"]["epochs"] == 2 and config["preset"]["eval_max_steps"] == 6
     # The run names the numeric path it ran on (pinned, as this test process is).
     machines = config["runtime"]["machines"]
     assert config["runtime"]["threads"] == 1  # torch threads: last-bit differences follow them
@@ -103,13 +103,13 @@ def test_run_folder_and_results(bench_run: Path) -> None:
     ]
     results = _results(bench_run)
     assert results["complete"] and results["stage"] == ["done", "done"]
-    assert results["eval_epochs"] == [0, 1]
+    assert results["eval_epochs"] == [0, 2]
     curve = np.array(results["curve"], dtype=float)
     after = np.array(results["after"], dtype=float)
     assert curve.shape == (2, 2) and np.isfinite(curve).all()
     assert np.isfinite(after[1, 0]) and math.isnan(after[0, 1])
     assert after[0, 0] == curve[0].max() and after[1, 1] == curve[1].max()
-    assert len(results["losses"][0]) == 2 and all(math.isfinite(e["total"]) for e in results["losses"][0])
+    assert len(results["losses"][0]) == 3 and all(math.isfinite(e["total"]) for e in results["losses"][0])
     assert len(results["rollouts"]) == 2 * 2 * 3 + 3
     # Held-out starts: placements of the task's own stream, none a demonstration started from.
     heldout = [r for r in results["rollouts"] if r["start"] == "heldout"]
@@ -321,7 +321,7 @@ def test_robustness_sweep_of_a_smoke_policy(bench_run: Path, tmp_path: Path) -> 
     assert json.loads((out / "rollouts" / "meta" / "info.json").read_text())["total_episodes"] == 10
 
 
-def test_resume_after_sigkill_gives_the_same_results(
+def test_a_run_killed_in_the_middle_of_a_task_goes_on_with_the_same_results(
     bench_run: Path, tiny_dataset: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "resumed"
@@ -329,19 +329,28 @@ def test_resume_after_sigkill_gives_the_same_results(
     # Two environments, as bench_run: the policy's batched pass is then the same, bit for bit
     # (another batch size may change the actions' last bits: README, "Which outcomes may differ").
     command += ["--workers", "2", "--out", str(out)]
-    kill_once(command, (out / "checkpoints" / "task_000.safetensors").is_file, "its first checkpoint")
+    timings = out / "timings.jsonl"
+    # Killed once the first task's epoch 1 of 2 has finished: its state (or epoch 0's) is on disk.
+    kill_once(command, lambda: timings.is_file() and "epoch 1/2" in timings.read_text(), "epoch 1")
     partial = _results(out)
-    assert not partial["complete"] and partial["stage"][1] == ""
-    assert not (out / "checkpoints" / "task_001.safetensors").exists()
+    assert not partial["complete"] and partial["stage"] == ["", ""]
+    state = out / "checkpoints" / "task_000.epoch.safetensors"
+    assert state.is_file() and not (out / "checkpoints" / "task_000.safetensors").exists()
 
     result = bench("run", "--data", str(tiny_dataset), *RUN_ARGS, "--workers", "2", "--out", str(out))
     assert result.returncode == 0, result.stderr[-3000:]
-    # interrupted or not: the same numbers
+    assert "resuming after epoch" in (out / "run.log").read_text()
+    assert not state.exists()  # the task ended: its epoch state is gone
+    # Interrupted or not: the same numbers, rollouts, recordings and weights (checkpoints are the
+    # same bytes for the same state).
     assert _results(out) == _results(bench_run)
     assert sorted(p.name for p in (out / "rrd").iterdir()) == sorted(
         p.name for p in (bench_run / "rrd").iterdir()
     )
     assert _episodes(out) == _episodes(bench_run)
+    for k in range(2):
+        name = f"task_{k:03d}.safetensors"
+        assert (out / "checkpoints" / name).read_bytes() == (bench_run / "checkpoints" / name).read_bytes()
     resumed = json.loads((out / "config.json").read_text())["runtime"]["machines"]
     assert len(resumed) == 1  # the same machine worked on it twice: listed once
     import datasets

@@ -136,23 +136,12 @@ def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
     }
     assert not set(config["heldout_seeds"]["open_the_middle_drawer_of_the_cabinet"]) & demo_seeds
 
-    # The robustness sweep takes the LeRobot policy in place of a run.
-    sweep = tmp_path / "sweep"
-    args = ["--tasks", "libero_goal/0", "--kinds", "noise", "--levels", "2", "--rollouts", "1"]
-    result = _run(
-        sys.executable,
-        "-m",
-        "libero_bench.cli",
-        "robustness",
-        str(act),
-        *args,
-        "--max-steps",
-        "3",
-        "-o",
-        str(sweep),
-    )
-    assert result.returncode == 0, result.stderr[-3000:]
-    grid = json.loads((sweep / "robustness.json").read_text())["table"]["grid"]
+    # The robustness sweep takes the LeRobot policy in place of a run (a function call: the
+    # command line was checked with eval above).
+    from libero_bench.robustness.sweep import SweepRequest, sweep
+
+    request = SweepRequest(tasks=("libero_goal/0",), kinds=("noise",), levels=(2,), rollouts=1, max_steps=3)
+    grid = sweep(act, request, tmp_path / "sweep")["table"]["grid"]
     assert grid["noise"]["0"]["n"] == 1 and grid["noise"]["2"]["n"] == 1
 
     # lerobot-eval finds our environment plugin: a shipped task and a generated one, with one
@@ -180,20 +169,9 @@ def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
     # Diffusion Policy too (its own processors, another input layout).
     diffusion = _train(tiny_dataset, tmp_path / "diffusion", DIFFUSION)
     other = tmp_path / "eval-diffusion"
-    args = [
-        "--tasks",
-        "libero_goal/7",
-        "--stored",
-        "1",
-        "--heldout",
-        "0",
-        "--max-steps",
-        "3",
-        "--out",
-        str(other),
-    ]
-    result = _run(sys.executable, "-m", "libero_bench.cli", "eval", str(diffusion), *args)
-    assert result.returncode == 0, result.stderr[-3000:]
+    from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy
+
+    evaluate_policy(EvalRequest(str(diffusion), ("libero_goal/7",), 1, 0, max_steps=3), other)
     assert json.loads((other / "report.json").read_text())["all"]["stored"]["n"] == 1
 
 

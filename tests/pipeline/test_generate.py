@@ -199,6 +199,7 @@ def test_a_worker_keeps_its_environment_between_jobs_of_the_same_task() -> None:
 def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Path, tmp_path: Path) -> None:
     """Shards are completed in a background thread while the next episode renders; two
     episodes of one task (the stored search of task 0, used twice) go through that path."""
+    import dataclasses
     import shutil
 
     from libero_data.pipeline.episodes import EpisodeJob, make_episodes
@@ -212,6 +213,8 @@ def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Pat
     for k in (0, 1):
         shutil.copy(record, work / "search" / record.name.replace("000-00000", f"000-{k:05d}"))
     request = GenerateRequest.from_dict(json.loads((source / "request.json").read_text()))
+    # `fast` images: the background writer is under test here, not the renderer (3x cheaper)
+    request = dataclasses.replace(request, render_quality="fast")
     width = int(json.loads((source / "sim_state_width.json").read_text()))
     on_disk: list[tuple[str, bool]] = []
 

@@ -170,7 +170,8 @@ def test_generate_variants_of_the_new_kinds_writes_a_dataset_that_replays(tmp_pa
     kinds = ("camera", "robot_init", "noise")
     out = tmp_path / "variants"
     args = ["--variants-of", "libero_object/0", "--kinds", ",".join(kinds), "--level", "3"]
-    args += ["--episodes-per-task", "1", "--image-size", "64", "--workers", "1", "--out", str(out)]
+    args += ["--episodes-per-task", "1", "--image-size", "64", "--render-quality", "fast"]
+    args += ["--workers", "1", "--out", str(out)]
     result = run_cli("generate", *args)
     assert result.returncode == 0, result.stderr[-3000:]
     tasks = json.loads((out / "suite.json").read_text())["tasks"]
