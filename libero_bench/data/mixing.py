@@ -83,14 +83,7 @@ class MixPlan:
     def starts(self, position: int) -> tuple[set[int], set[int]]:
         """Where the mixed episodes of a task began: stored init indices and sampler seeds (an
         episode without a record of it is refused when the plan is made)."""
-        stored: set[int] = set()
-        seeds: set[int] = set()
-        for d, source in enumerate(self.sources):
-            found = source.starts_of(e.episode for e in self.episodes.get(position, []) if e.dataset == d)
-            if found is not None:  # always recorded: plan_mix refuses a dataset that does not
-                stored |= found[0]
-                seeds |= found[1]
-        return stored, seeds
+        return _starts(self.sources, [(e.dataset, e.episode) for e in self.episodes.get(position, [])])
 
     def config(self, tasks: Sequence[DemoTask]) -> dict[str, Any]:
         """The ``mix`` entry of the run's ``config.json``."""
@@ -253,10 +246,18 @@ def mixed_seeds(config: dict[str, Any]) -> dict[str, set[int]]:
     if not mix:
         return {}
     sources = [DemoDataset(d["data"]) for d in mix["datasets"]]
-    out: dict[str, set[int]] = {}
-    for name, entry in mix["tasks"].items():
-        seeds = out.setdefault(name, set())
-        for d, source in enumerate(sources):
-            found = source.starts_of(episode for k, episode in entry["episodes"] if k == d)
-            seeds |= found[1] if found is not None else set()
-    return out
+    return {name: _starts(sources, entry["episodes"])[1] for name, entry in mix["tasks"].items()}
+
+
+def _starts(sources: Sequence[DemoDataset], episodes: Sequence[Sequence[int]]) -> tuple[set[int], set[int]]:
+    """Where mixed episodes, given as (dataset, episode) pairs, began: stored init indices and
+    sampler seeds (:meth:`DemoDataset.starts_of`; every episode records it: plan_mix refuses a
+    dataset that does not)."""
+    stored: set[int] = set()
+    seeds: set[int] = set()
+    for d, source in enumerate(sources):
+        found = source.starts_of(episode for k, episode in episodes if k == d)
+        if found is not None:
+            stored |= found[0]
+            seeds |= found[1]
+    return stored, seeds
