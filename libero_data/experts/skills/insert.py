@@ -299,10 +299,25 @@ def _slide_in(
     body = scene.pos(ctx.held) + (eef - scene.eef_pos())
     outside = body[:2] + out * (float(np.linalg.norm(body[:2] - face)) + reach_in + 0.06)
     yield from carry_to(ctx, outside, bottom, mat)
+    # A long-handled object lowered fast swings in the hand: let it come to rest first, or
+    # it goes into the opening askew and high and the slide stops short.
+    for _ in range(20):
+        if scene.speed(ctx.held) < 0.02:
+            break
+        yield from ctx.motion.hold(1, mat)
     # About 3 mm per step at this speed: allow for the whole way in (a long-handled pan
     # starts far out).
     way = float(np.linalg.norm(scene.eef_pos() - eef))
-    yield from ctx.motion.move(eef, mat, speed=0.1, tol=0.006, max_steps=max(80, int(40 + way / 0.0025)))
+    budget, goal = max(80, int(40 + way / 0.0025)), eef.copy()
+    for _ in range(0, budget, 4):
+        # An object held by its handle sags: its far edge drags on the floor of the opening
+        # and catches there. Raise the hand by what the object's lowest point has sunk
+        # below the planned clearance (at most 5 cm).
+        sunk = (bottom - 0.008) - float(scene.points(ctx.held)[:, 2].min())
+        if sunk > 0:
+            goal[2] = min(max(goal[2], scene.eef_pos()[2] + sunk), eef[2] + 0.05)
+        if (yield from ctx.motion.move(goal, mat, speed=0.1, tol=0.006, max_steps=4)):
+            break
     yield from ctx.motion.set_gripper(OPEN, steps=8, mat=mat)
     ctx.held = None
     inside = max(float((face - scene.eef_pos()[:2]) @ out), 0.0)  # how deep the hand went in

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from libero_data.experts.geometry import approach_frame, yaw_of_closing
+from libero_data.experts.geometry import approach_frame, top_down, yaw_of_closing
 from libero_data.experts.grasp import MAX_OPENING, GraspSearch, has_top_down_grasp, plan_top_down
 from libero_data.experts.motion import CLOSE, OPEN, Actions
 from libero_data.experts.skills.base import (
@@ -141,7 +141,7 @@ def _plan(scene, obj: str) -> list:
 def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     """One grasp: approach from above, close, lift a little; False (gripper open) if it failed."""
     scene = ctx.scene
-    grasp = _leaning_back(ctx, grasp)
+    grasp = _leaning_back(ctx, _within_wrist(ctx, grasp))
     label = lambda phase: "regrasp" if ctx.notes.get("regrasp") else phase  # noqa: E731
     ctx.phase = label("approach")
     above = grasp.pos - grasp.mat[:, 2] * (0.08 + ctx.jitter(0.02) + 0.02)
@@ -202,6 +202,26 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
 TOO_CLOSE = 0.275
 #: How far the hand leans back toward the robot then (the wrist moves out, the elbow opens).
 LEAN_BACK = np.deg2rad(25.0)
+
+
+#: Last arm joint angle (rad) a grasp may leave the wrist at; its stop is at 2.90. Holding
+#: an object there, the arm cannot keep the hand's orientation while it moves and stalls
+#: short of where it is sent (libero_spatial/2: a regrasp left it at 2.86 and the bowl
+#: stopped 4-7 cm short of the plate in 3 of 50 inits).
+WRIST_ROOM = 2.6
+
+
+def _within_wrist(ctx: Context, grasp):
+    """The grasp, or its half-turned twin (a parallel gripper is symmetric) where turning
+    to it would take the last joint beyond ``WRIST_ROOM``."""
+    if not np.allclose(grasp.mat, top_down(grasp.yaw)):
+        return grasp
+    turn = (grasp.yaw - yaw_of_closing(ctx.scene.eef_mat()) + np.pi) % (2 * np.pi) - np.pi
+    q7 = ctx.scene.joint("robot0_joint7").qpos - turn  # a turn about +z turns the joint back
+    if abs(q7) <= WRIST_ROOM:
+        return grasp
+    yaw = grasp.yaw + np.pi * np.sign(q7)
+    return replace(grasp, yaw=yaw, mat=top_down(yaw))
 
 
 def _leaning_back(ctx: Context, grasp):
