@@ -47,6 +47,33 @@ FAST_IMAGE_NOTE = (
 )
 
 
+#: How the card says an expert's demonstrations were made (the defaults of :func:`render_card`).
+EXPERT_HOW = (
+    "Human demonstrations are not used. A scripted expert reads each task's goal predicates from "
+    "its BDDL file, plans them into skills (pick, place on, place in, open/close a drawer or a "
+    "hinged door, turn a knob, push) and drives the robot with 7-D OSC delta actions computed "
+    "from the simulator's privileged state. Each episode's style (speed, small waypoint jitter, "
+    "action noise) is drawn from its own seed, so episodes of a task are not copies of each other. "
+    "Episodes are searched without cameras; kept episodes are re-rendered frame by frame from "
+    "their stored MuJoCo states."
+)
+EXPERT_TASK_NOTE = (
+    "Task: the robot must make the goal formula of the task's BDDL file true; an episode ends at "
+    "the first frame after which the goal holds. Randomisations: object placement (LIBERO's init "
+    "states or its placement sampler), the arm's starting pose (the init states' or, on sampler "
+    "starts, seeded joint noise), fixture placement (seeded per episode), the expert's style."
+)
+EXPERT_REPRODUCIBILITY = (
+    "Replaying an episode's stored actions from its first stored state gives its stored states bit "
+    "for bit on any machine whose numeric path has the key listed under *Settings and versions* "
+    "(`numeric path <key>`): an x86-64 CPU with AVX2 and FMA, the same library versions, and the "
+    "numeric path `libero-data` pins (OpenBLAS's Sandybridge kernel, NumPy without AVX-512). "
+    "`libero-data validate --resimulate N` checks it; on a machine with another key it reports where "
+    "and by how much a replay departs, and `--tolerance` decides. The images also depend on the "
+    "OpenGL renderer listed there."
+)
+
+
 def render_card(
     *,
     title: str,
@@ -65,6 +92,10 @@ def render_card(
     expert_note: str = "",
     camera_keys: dict[str, str] | None = None,
     image_note: str = FULL_IMAGE_NOTE,
+    kind_tag: str = "scripted-demonstrations",
+    how_made: str = EXPERT_HOW,
+    task_note: str = EXPERT_TASK_NOTE,
+    reproducibility: str = EXPERT_REPRODUCIBILITY,
 ) -> str:
     """The card text; every number comes from the caller (nothing is guessed here)."""
     from libero_data.record.features import CAMERA_KEYS
@@ -104,6 +135,10 @@ def render_card(
         start_note=start_note,
         expert_note=expert_note,
         image_note=image_note,
+        kind_tag=kind_tag,
+        how_made=how_made,
+        task_note=task_note,
+        reproducibility=reproducibility,
     )
 
 

@@ -8,7 +8,17 @@ from __future__ import annotations
 
 import typer
 
-from libero_data.cli import card, dataset, expert_report, generate, render_cache, rerender, scenes, tasks
+from libero_data.cli import (
+    card,
+    dataset,
+    expert_report,
+    generate,
+    import_hdf5,
+    render_cache,
+    rerender,
+    scenes,
+    tasks,
+)
 
 app = typer.Typer(
     name="libero-data",
@@ -23,6 +33,7 @@ app.command("generate")(generate.generate_cmd)
 app.command("scenes")(scenes.scenes_cmd)
 app.command("contact-sheet")(scenes.contact_sheet_cmd)
 app.command("rerender")(rerender.rerender_cmd)
+app.command("import")(import_hdf5.import_cmd)
 app.command("render-cache")(render_cache.render_cache_cmd)
 app.command("validate")(dataset.validate_cmd)
 app.command("replay")(dataset.replay_cmd)

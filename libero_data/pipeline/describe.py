@@ -31,6 +31,7 @@ def describe_dataset(
     from libero_data.cards import render_card
     from libero_data.cards.card import FAST_IMAGE_NOTE, FULL_IMAGE_NOTE
     from libero_data.cards.expert_table import length_line
+    from libero_data.hdf5.card_rows import HUMAN_SECTIONS, import_settings, import_start_note
     from libero_data.runtime.versions import versions
     from libero_data.tasks import get_suite
 
@@ -70,10 +71,20 @@ def describe_dataset(
         **provenance.card_settings(machines, renderers),
         **_generator_settings(suite.manifest(), len(suite.tasks)),
         **_perturbation_rows([suite.task(i) for i in request.tasks]),
+        **(import_settings(request.imported, infos, request.drop_noops) if request.imported else {}),
     }
+    if request.imported:  # no expert, seed or attempts: where they began is measured per episode
+        for key in ("seed", "attempts per episode (at most)", "expert code"):
+            settings.pop(key, None)
+        settings["starts"] = "where each human demonstration began, measured (began from a stored init state)"
     card = render_card(
         title=f"libero-data · {suite.name}",
-        summary=f"Scripted demonstrations of the LIBERO suite `{suite.name}`, made with libero-data in LeRobot v3 format."
+        summary=(
+            f"Human demonstrations of the LIBERO suite `{suite.name}` (LIBERO's own, imported from its HDF5 files), "
+            "re-rendered from their stored states with libero-data in LeRobot v3 format."
+            if request.imported
+            else f"Scripted demonstrations of the LIBERO suite `{suite.name}`, made with libero-data in LeRobot v3 format."
+        )
         + (f" Re-rendered from the stored states of `{request.source}`." if request.source else ""),
         suite=suite.name,
         repo_id=request.repo_id,
@@ -86,9 +97,12 @@ def describe_dataset(
         image_size=request.image_size,
         sim_state_width=width,
         settings=settings,
-        start_note=start_note(request.starts, request.episodes_per_task, request.arm_noise),
+        start_note=import_start_note(infos)
+        if request.imported
+        else start_note(request.starts, request.episodes_per_task, request.arm_noise),
         camera_keys=request.layout.camera_keys,
         image_note=FAST_IMAGE_NOTE if request.render_quality == "fast" else FULL_IMAGE_NOTE,
+        **(HUMAN_SECTIONS if request.imported else {}),
     )
     meta = {
         "request": request.to_dict(),

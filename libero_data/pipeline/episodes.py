@@ -152,6 +152,10 @@ def episode_info(task: Any, slot: Slot, record: dict[str, Any], gl: dict[str, st
         "machine": record.get("machine") or UNKNOWN_MACHINE,
         "gl": gl,
         "success": True,
+        # Imported demonstrations (libero-data import): where each came from, its checks, and
+        # where its fixtures stood (a replay places them so before restoring its states).
+        **({"fixtures": record["fixtures"]} if "fixtures" in record else {}),
+        **record.get("imported", {}),
     }
 
 
@@ -216,6 +220,10 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             if record["success"] and not shard.is_dir():
                 env, _expert = expert_env(ctx.cache, task, *_env_settings(request))
                 env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
+                if "fixtures" in record:  # imported: where its fixtures stood
+                    from libero_data.hdf5.fixtures import place_fixtures
+
+                    place_fixtures(env, record["fixtures"])
                 finish = render_shard(
                     shard,
                     env=env,

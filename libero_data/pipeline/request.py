@@ -38,6 +38,9 @@ class GenerateRequest(Config):
         "source": "",
         "render_quality": "full",
         "arm_noise": 0.0,  # sampler starts then began from LIBERO's one arm pose
+        "imported": [],
+        "import_tolerance": 0.0,
+        "drop_noops": False,
     }
 
     suite: str
@@ -53,6 +56,11 @@ class GenerateRequest(Config):
     source: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
     render_quality: str = "full"  # libero_data.sim.env.RENDER_QUALITIES
     arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on sampler starts (libero_data.sim.arm)
+    # Imported from LIBERO's HDF5 files (libero-data import): the files, one per task in
+    # ``tasks`` order; the largest one-step replay deviation kept; no-op frames dropped.
+    imported: tuple[str, ...] = ()
+    import_tolerance: float = 0.0
+    drop_noops: bool = False
 
     def __post_init__(self) -> None:
         check_arm_noise(self.arm_noise)

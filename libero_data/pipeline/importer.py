@@ -1,0 +1,224 @@
+"""``libero-data import``: LIBERO's HDF5 demonstrations (human) as a libero-data dataset.
+
+Each file is one task: found in our registry from its BDDL. Each demonstration becomes the
+search record of one slot (as ``rerender`` does with a dataset's episodes), after its checks:
+its fixtures placed from the model XML it stores, its states stepped one action at a time under
+our simulator (the largest deviation must stay within ``tolerance``), the stored init state it
+began nearest to, and optionally its no-op frames dropped. ``generate`` then renders each
+episode from its states (any size, cameras, naming, quality), writes its MCAP log and the card,
+resumes after an interruption and runs in parallel as it does for expert episodes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from libero_data.errors import DatasetError, InputError
+from libero_data.pipeline.episodes import search_path
+from libero_data.pipeline.generate import Progress, check_output, generate
+from libero_data.pipeline.request import GenerateRequest, Slot, slots_of
+from libero_data.runtime.files import save_record
+from libero_data.runtime.folder import DATASET_WORK, WorkFolder
+
+#: Largest one-step deviation (m or rad) of a demonstration's replay that an import accepts.
+DEFAULT_TOLERANCE = 0.01
+#: The demonstrator an imported episode names.
+HUMAN = "human (LIBERO's teleoperated demonstrations)"
+
+
+def plan_import(
+    paths: list[Path],
+    *,
+    image_size: int = 128,
+    features: str = "libero-data",
+    cameras: tuple[str, ...] = ("agentview", "eye_in_hand"),
+    render_quality: str = "full",
+    tolerance: float = DEFAULT_TOLERANCE,
+    drop_noops: bool = False,
+) -> tuple[GenerateRequest, dict[int, Any]]:
+    """The request an import of ``paths`` (files or folders) makes, and each task's file."""
+    from libero_data.hdf5.fixtures import find_task
+    from libero_data.hdf5.reader import libero_files, read_libero_file
+
+    if not tolerance >= 0:
+        raise InputError(f"the tolerance must be a non-negative number, got {tolerance}", field="tolerance")
+    files = [read_libero_file(p) for p in libero_files(paths)]
+    by_task: dict[int, Any] = {}
+    suite = None
+    for f in files:
+        task = find_task(f.bddl_content, f.bddl_file_name, str(f.path))
+        if suite is not None and task.suite != suite:
+            raise DatasetError(
+                f"{f.path} is a {task.suite} task and the files before it {suite} tasks; import each suite's "
+                "files on their own"
+            )
+        suite = task.suite
+        if task.index in by_task:
+            raise DatasetError(
+                f"{f.path} and {by_task[task.index].path} both hold demonstrations of {task.id}; import them "
+                "one at a time"
+            )
+        by_task[task.index] = f
+    assert suite is not None
+    tasks = tuple(sorted(by_task))
+    request = GenerateRequest(
+        suite=suite,
+        tasks=tasks,
+        episodes_per_task=max(len(f.demo_keys) for f in by_task.values()),
+        image_size=image_size,
+        max_attempts=1,
+        repo_id=f"libero-data/{suite}-human",
+        starts="stored",
+        features=features,
+        cameras=tuple(cameras),
+        render_quality=render_quality,
+        imported=tuple(str(by_task[i].path) for i in tasks),
+        import_tolerance=float(tolerance),
+        drop_noops=bool(drop_noops),
+    )
+    return request, by_task
+
+
+def import_records(
+    request: GenerateRequest,
+    by_task: dict[int, Any],
+    folder: Path,
+    *,
+    on_step: Callable[[str], None] | None = None,
+) -> None:
+    """Write the search record of every slot not written yet (one demonstration each)."""
+    from libero_data.sim import EnvConfig, LiberoEnv
+    from libero_data.tasks import get_suite
+
+    suite = get_suite(request.suite)
+    slots = slots_of(request)
+    for position, index in enumerate(request.tasks):
+        todo = [s for s in slots if s.position == position and not (folder / search_path(s.key)).is_file()]
+        if not todo:
+            continue
+        task, source = suite.task(index), by_task[index]
+        with LiberoEnv(task, EnvConfig(cameras=())) as env:
+            stored = task.init_states() if task.init_states_path is not None else None
+            for slot in todo:
+                if on_step:
+                    on_step(f"checking {task.id} demonstration {slot.k + 1}/{len(source.demo_keys)}")
+                record = demo_record(env, task.id, request, source, slot, stored)
+                save_record(folder / search_path(slot.key), record)
+
+
+def demo_record(
+    env: Any, task_id: str, request: GenerateRequest, source: Any, slot: Slot, stored: Any
+) -> dict[str, Any]:
+    """One demonstration's search record: its states and actions, checked, with where it came from."""
+    from libero_data.hdf5.checks import START_MATCH, nearest_init, noop_frames, step_replay
+    from libero_data.hdf5.fixtures import fixture_poses, place_fixtures
+    from libero_data.hdf5.reader import DROPPED_AT_START
+
+    name = Path(source.path).name
+    if slot.k >= len(source.demo_keys):
+        return _not_kept(f"{name} holds {len(source.demo_keys)} demonstrations, not {slot.k + 1}")
+    key = source.demo_keys[slot.k]
+    demo = source.demo(key)
+    where = f"{source.path}, {key}"
+    if demo.states.shape[1] != env.state_dim:
+        raise DatasetError(
+            f"{where}: states are {demo.states.shape[1]} wide but {task_id}'s scene here has {env.state_dim}: "
+            "not the same scene"
+        )
+    fixtures = fixture_poses(demo.model_xml, env, where)
+    env.reset(seed=0, render=False)
+    place_fixtures(env, fixtures)
+    replay = step_replay(env, demo.states, demo.actions)
+    if replay.worst > request.import_tolerance:
+        return _not_kept(
+            f"{key}: stepping its stored states deviates by up to {replay.worst:.2e} (joint and object positions, "
+            f"m or rad), more than the tolerance of {request.import_tolerance:g}"
+        )
+    nearest, distance = (
+        (-1, float("nan")) if stored is None else nearest_init(env, demo.states[0], stored, DROPPED_AT_START)
+    )
+    keep = ~noop_frames(demo.actions) if request.drop_noops else np.ones(len(demo.actions), dtype=bool)
+    keep[-1] = True  # the last frame carries the final state
+    if keep.sum() < 2:
+        return _not_kept(f"{key}: fewer than 2 frames are left once its no-op frames are dropped")
+    return {
+        "success": True,
+        "attempts": 1,
+        "failures": [],
+        "init_index": nearest if distance <= START_MATCH else -1,
+        "reset_seed": 0,
+        "expert_seed": -1,
+        "actions": demo.actions[keep],
+        "states": demo.states[keep],
+        "final_state": replay.final_state,
+        "plan": [],
+        "expert_code": "human",
+        "machine": {"numeric_key": "unknown"},
+        "fixtures": fixtures,
+        "imported": {
+            "demonstrator": HUMAN,
+            "source_file": name,
+            "demo_key": key,
+            "frames_in_file": len(demo.actions),
+            "noops_dropped": int((~keep).sum()),
+            "noop_frames": [int(i) for i in np.flatnonzero(~keep)],
+            "init_nearest": nearest,
+            "init_distance": None if np.isnan(distance) else round(distance, 5),
+            "replay_worst": float(f"{replay.worst:.3e}"),
+            "replay_mean": float(f"{replay.mean:.3e}"),
+        },
+    }
+
+
+def _not_kept(reason: str) -> dict[str, Any]:
+    return {"success": False, "attempts": 1, "failures": [reason], "expert_code": "human"}
+
+
+def import_hdf5(
+    paths: list[Path],
+    out: str | Path,
+    *,
+    image_size: int = 128,
+    features: str = "libero-data",
+    cameras: tuple[str, ...] = ("agentview", "eye_in_hand"),
+    render_quality: str = "full",
+    tolerance: float = DEFAULT_TOLERANCE,
+    drop_noops: bool = False,
+    workers: int = 1,
+    executor: str = "local",
+    ray_address: str | None = None,
+    on_progress: Callable[[Progress], None] | None = None,
+    on_step: Callable[[str], None] | None = None,
+    command: str = "",
+    keep_work: bool = False,
+) -> Progress:
+    """Import LIBERO's HDF5 demonstrations into the dataset ``out`` (resumes an interrupted run)."""
+    request, by_task = plan_import(
+        [Path(p) for p in paths],
+        image_size=image_size,
+        features=features,
+        cameras=cameras,
+        render_quality=render_quality,
+        tolerance=tolerance,
+        drop_noops=drop_noops,
+    )
+    out = Path(out).resolve()
+    if check_output(request, out) is None:  # not finished before
+        folder = WorkFolder(out / DATASET_WORK, "dataset")
+        with folder.locked(owner=out):
+            folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)
+            import_records(request, by_task, folder.root, on_step=on_step)
+    return generate(
+        request,
+        out,
+        workers=workers,
+        executor=executor,
+        ray_address=ray_address,
+        on_progress=on_progress,
+        command=command,
+        keep_work=keep_work,
+    )
