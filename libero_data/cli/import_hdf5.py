@@ -81,6 +81,7 @@ def import_cmd(
     chosen = tuple(split_list(cameras)) or CAMERAS
     request, by_task = plan_import(  # a file that is not LIBERO's is its sentence alone
         files,
+        out,
         image_size=size,
         features=features,
         cameras=chosen,

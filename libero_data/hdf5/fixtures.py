@@ -40,18 +40,14 @@ def _bddl_index() -> dict[str, list[tuple[str, int]]]:
     return index
 
 
-def find_task(bddl_content: str, bddl_file_name: str, where: str) -> Any:
+def registry_task(bddl_content: str, bddl_file_name: str) -> Any | None:
     """The registry task whose BDDL is the file's (its ``bddl_file_name`` settles ties between
-    suites); one sentence naming the file if none is."""
+    suites), or None when it is none of LIBERO's tasks here."""
     from libero_data.tasks import get_suite
 
     matches = _bddl_index().get(normal_bddl(bddl_content), [])
     if not matches:
-        stem = bddl_file_name.replace("\\", "/").rsplit("/", 1)[-1]
-        raise DatasetError(
-            f"{where}: its task ({stem}) is none of LIBERO's 130 tasks in this toolkit (its embedded BDDL "
-            "differs from every one)"
-        )
+        return None
     parts = bddl_file_name.replace("\\", "/").split("/")
     preferred = [m for m in matches if m[0] in parts]
     suite, index = (preferred or matches)[0]

@@ -32,6 +32,7 @@ HUMAN = "human (LIBERO's teleoperated demonstrations)"
 
 def plan_import(
     paths: list[Path],
+    out: Path,
     *,
     image_size: int = 128,
     features: str = "libero-data",
@@ -40,30 +41,42 @@ def plan_import(
     tolerance: float = DEFAULT_TOLERANCE,
     drop_noops: bool = False,
 ) -> tuple[GenerateRequest, dict[int, Any]]:
-    """The request an import of ``paths`` (files or folders) makes, and each task's file."""
-    from libero_data.hdf5.fixtures import find_task
+    """The request an import of ``paths`` (files or folders) into ``out`` makes, and each
+    task's file. Files of LIBERO's tasks import as tasks of their suite; files whose BDDL is none
+    of them import as tasks of their own, a suite folder in ``out`` (:func:`write_own_suite`)."""
+    from libero_data.hdf5.fixtures import registry_task
     from libero_data.hdf5.reader import libero_files, read_libero_file
 
     if not tolerance >= 0:
         raise InputError(f"the tolerance must be a non-negative number, got {tolerance}", field="tolerance")
     files = [read_libero_file(p) for p in libero_files(paths)]
+    found = [registry_task(f.bddl_content, f.bddl_file_name) for f in files]
+    known = [(f, t) for f, t in zip(files, found, strict=True) if t is not None]
+    if known and len(known) < len(files):
+        odd = next(f for f, t in zip(files, found, strict=True) if t is None)
+        raise DatasetError(
+            f"{odd.path} holds a task of its own (its BDDL is none of LIBERO's 130 tasks) while {known[0][0].path} "
+            f"holds {known[0][1].id}; import the files of your own tasks on their own"
+        )
     by_task: dict[int, Any] = {}
-    suite = None
-    for f in files:
-        task = find_task(f.bddl_content, f.bddl_file_name, str(f.path))
-        if suite is not None and task.suite != suite:
-            raise DatasetError(
-                f"{f.path} is a {task.suite} task and the files before it {suite} tasks; import each suite's "
-                "files on their own"
-            )
-        suite = task.suite
-        if task.index in by_task:
-            raise DatasetError(
-                f"{f.path} and {by_task[task.index].path} both hold demonstrations of {task.id}; import them "
-                "one at a time"
-            )
-        by_task[task.index] = f
-    assert suite is not None
+    if not known:
+        _own_task_names(files)  # checks the BDDL texts and names
+        suite = str(Path(out).resolve())
+        by_task = dict(enumerate(files))
+    else:
+        suite = known[0][1].suite
+        for f, task in known:
+            if task.suite != suite:
+                raise DatasetError(
+                    f"{f.path} is a {task.suite} task and the files before it {suite} tasks; import each suite's "
+                    "files on their own"
+                )
+            if task.index in by_task:
+                raise DatasetError(
+                    f"{f.path} and {by_task[task.index].path} both hold demonstrations of {task.id}; import them "
+                    "one at a time"
+                )
+            by_task[task.index] = f
     tasks = tuple(sorted(by_task))
     request = GenerateRequest(
         suite=suite,
@@ -71,7 +84,7 @@ def plan_import(
         episodes_per_task=max(len(f.demo_keys) for f in by_task.values()),
         image_size=image_size,
         max_attempts=1,
-        repo_id=f"libero-data/{suite}-human",
+        repo_id=f"libero-data/{Path(suite).name}-human",
         starts="stored",
         features=features,
         cameras=tuple(cameras),
@@ -81,6 +94,42 @@ def plan_import(
         drop_noops=bool(drop_noops),
     )
     return request, by_task
+
+
+def _own_task_names(files: list[Any]) -> list[str]:
+    """The task names of files imported as tasks of their own (from LIBERO's BDDL file name),
+    their embedded BDDL checked."""
+    from libero_data.bddl import parse
+
+    names = []
+    for f in files:
+        parse(f.bddl_content, source=f"{f.path} (its embedded BDDL)")
+        stem = f.bddl_file_name.replace("\\", "/").rsplit("/", 1)[-1].removesuffix(".bddl") or f.path.stem
+        names.append(stem)
+    if len(set(names)) != len(names):
+        twice = next(n for n in names if names.count(n) > 1)
+        raise DatasetError(
+            f"two files hold demonstrations of a task named {twice}; import them one at a time"
+        )
+    return names
+
+
+def write_own_suite(out: Path, files: list[Any]) -> None:
+    """The suite folder of files imported as tasks of their own: ``out/suite.json`` and each
+    file's embedded BDDL in ``out/tasks/`` (as ``generate --procedural`` writes a suite)."""
+    import json
+
+    from libero_data.runtime.files import write_text
+    from libero_data.tasks import SUITE_MANIFEST
+
+    names = _own_task_names(files)
+    entries = []
+    for name, f in zip(names, files, strict=True):
+        write_text(out / "tasks" / f"{name}.bddl", f.bddl_content)
+        entries.append({"name": name, "language": f.language or None, "bddl": f"tasks/{name}.bddl"})
+    write_text(
+        out / SUITE_MANIFEST, json.dumps({"name": out.name, "imported": True, "tasks": entries}, indent=1)
+    )
 
 
 def import_records(
@@ -197,8 +246,10 @@ def import_hdf5(
     keep_work: bool = False,
 ) -> Progress:
     """Import LIBERO's HDF5 demonstrations into the dataset ``out`` (resumes an interrupted run)."""
+    out = Path(out).resolve()
     request, by_task = plan_import(
         [Path(p) for p in paths],
+        out,
         image_size=image_size,
         features=features,
         cameras=cameras,
@@ -206,8 +257,10 @@ def import_hdf5(
         tolerance=tolerance,
         drop_noops=drop_noops,
     )
-    out = Path(out).resolve()
-    if check_output(request, out) is None:  # not finished before
+    if check_output(request, out) is None:  # not finished before (and nothing else in ``out``)
+        if request.suite == str(out):
+            out.mkdir(parents=True, exist_ok=True)
+            write_own_suite(out, [by_task[i] for i in request.tasks])
         folder = WorkFolder(out / DATASET_WORK, "dataset")
         with folder.locked(owner=out):
             folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)

@@ -62,6 +62,7 @@ def write_libero_file(path: Path, task: Any, episodes: list[Episode], image_size
         "domain_name": "robosuite",
         "language_instruction": task.problem.language,
     }
+    path.parent.mkdir(parents=True, exist_ok=True)
     with h5py.File(path, "w") as f:
         data = f.create_group("data")
         data.attrs["env_name"] = "Libero_Tabletop_Manipulation"

@@ -11,7 +11,7 @@ import pytest
 
 from libero_data.errors import DatasetError
 from libero_data.hdf5.reader import DROPPED_AT_START, read_libero_file
-from tests.hdf5.libero_files import expert_episodes, write_libero_file
+from tests.hdf5.libero_files import Episode, expert_episodes, write_libero_file
 from tests.tiny_data import run_cli
 
 
@@ -50,6 +50,44 @@ def test_a_truncated_foreign_or_non_hdf5_file_is_refused_in_one_sentence(tmp_pat
     result = run_cli("import", str(truncated), "--out", str(tmp_path / "out"))
     assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr[-2000:]
     assert "is not a readable HDF5 file" in result.stderr and not (tmp_path / "out").exists()
+
+
+def test_a_file_of_a_task_of_its_own_is_imported_as_its_own_suite_and_not_mixed_with_liberos(
+    tmp_path: Path,
+) -> None:
+    """A file whose embedded BDDL is none of LIBERO's tasks (here: one with its instruction
+    reworded) becomes a task of a suite folder in the output; mixed with a file of LIBERO's
+    tasks it is refused in one sentence."""
+    from libero_data.pipeline.importer import plan_import, write_own_suite
+    from libero_data.tasks import get_suite, get_task
+
+    task = get_task("libero_goal/7")
+    stub = [Episode(0, 0, np.zeros((8, 79)), np.zeros((8, 7)), "<mujoco/>")]
+    text = task.bddl_path.read_text()
+    own_bddl = tmp_path / "turn_on_the_stove_slowly.bddl"
+    own_bddl.write_text(text.replace("(:language", "(:language slowly", 1))
+    own = write_libero_file(tmp_path / "own" / "own_demo.hdf5", _Renamed(task, own_bddl), stub)
+    out = tmp_path / "out"
+    request, by_task = plan_import([own.parent], out)
+    assert request.suite == str(out.resolve()) and request.tasks == (0,) and request.imported == (str(own),)
+    write_own_suite(out, [by_task[0]])
+    mine = get_suite(out).task(0)
+    assert mine.name == "turn_on_the_stove_slowly" and mine.problem.goal == task.problem.goal
+    theirs = write_libero_file(tmp_path / "mixed" / "b_demo.hdf5", task, stub)
+    (tmp_path / "mixed" / "a_demo.hdf5").write_bytes(own.read_bytes())
+    with pytest.raises(DatasetError, match="holds a task of its own") as caught:
+        plan_import([theirs.parent], tmp_path / "out2")
+    assert str(theirs) in str(caught.value) and "libero_goal/7" in str(caught.value)
+
+
+class _Renamed:
+    """A task with another BDDL file (what a LIBERO-format file of one's own task holds)."""
+
+    def __init__(self, task: object, bddl: Path) -> None:
+        self.suite, self.bddl_path = "mine", bddl
+        from libero_data.bddl import parse_file
+
+        self.problem = parse_file(bddl)
 
 
 @pytest.mark.sim
