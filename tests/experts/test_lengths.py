@@ -1,8 +1,9 @@
 """The expert's pace: every suite's demonstrations are held to the bound on their 95th
 percentile length (``libero_data.cards.expert_table.LENGTH_BOUNDS``).
 
-The committed measurement of today's expert (``benchmarks/results/expert_lengths/``, every task
-of the five suites) must be within the bounds. And on a small sample: one episode's length is
+The committed measurement of today's expert (``cards/expert_report.jsonl``: 50 stored init states
+of every task of the five suites, the table the dataset cards are made from) must be within the
+bounds. And on a small sample: one episode's length is
 not asserted (on another numeric path the same start can take other steps); per suite, a few
 successful episodes from starts and styles the measurement did not use are counted against
 the bound; how many may exceed it comes from the measurement: at the upper end of the 95%
@@ -28,9 +29,7 @@ from libero_data.tasks import get_task
 
 pytestmark = pytest.mark.sim
 
-REPORT = (
-    Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "expert_lengths" / "expert_report.jsonl"
-)
+REPORT = Path(__file__).resolve().parents[2] / "cards" / "expert_report.jsonl"
 ALPHA = 0.001
 SEED = 11  # styles and placements the table (seed 0) did not use
 #: Per suite, two tasks (drawn once with numpy.random.default_rng(35), then fixed) and three
@@ -64,8 +63,7 @@ def _over_share(suite: str) -> tuple[int, int]:
 
 def test_the_measurement_is_of_todays_expert_on_every_task() -> None:
     # Any change to the code that decides an episode (libero_data.provenance.EPISODE_CODE)
-    # needs it measured again (the command is in benchmarks/RESULTS.md, "Expert: where the
-    # steps go").
+    # needs it measured again: `libero-data expert-report --workers 2 --out cards` (cards/README.md).
     from libero_data.provenance import expert_code
     from libero_data.tasks import SUITE_NAMES, get_suite
 

@@ -92,7 +92,12 @@ class _Renamed:
 
 @pytest.mark.sim
 @pytest.mark.parametrize(
-    ("ref", "inits", "drop_noops"), [("libero_spatial/0", [3], True), ("libero_goal/7", [1, 2], False)]
+    ("ref", "inits", "drop_noops"),
+    [
+        ("libero_spatial/0", [3], True),
+        # The second suite runs with the slow tests (scripts/test runs them after the default suite).
+        pytest.param("libero_goal/7", [1], False, marks=pytest.mark.slow),
+    ],
 )
 def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
     ref: str, inits: list[int], drop_noops: bool, tmp_path: Path
