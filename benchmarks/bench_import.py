@@ -6,7 +6,7 @@ is imported with ``libero-data import`` in a fresh process at 128x128 with both 
 ``--workers`` value; prints a Markdown table (wall time, per demonstration, frames, dataset size).
 The demonstrations are the expert's, not LIBERO's human ones (which cannot be downloaded here):
 LIBERO's are longer on most suites (human longest per suite 193-505 steps), and time scales with
-frames. Run: ``python -m benchmarks.bench_import --task libero_spatial/0 --demos 50``.
+frames. Run: ``python -m benchmarks.bench_import --task libero_spatial/2 --demos 50``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def folder_bytes(path: Path) -> int:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--task", default="libero_spatial/0")
+    parser.add_argument("--task", default="libero_spatial/2")  # 50 of 50 for the expert
     parser.add_argument("--demos", type=int, default=50)
     parser.add_argument("--workers", default="2", help="comma-separated worker counts to time")
     parser.add_argument("--image-size", type=int, default=128)
