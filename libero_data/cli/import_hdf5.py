@@ -19,6 +19,7 @@ from libero_data.cli.common import (
     user_errors,
 )
 from libero_data.cli.generate import Features, GenImageSize, KeepWork, episodes_with_progress
+from libero_data.cli.rerender import NewDatasetOut, RenderCameras
 
 
 @user_errors
@@ -29,17 +30,10 @@ def import_cmd(
             help="LIBERO HDF5 files (one per task, as LIBERO distributes them) or folders of them, all of one suite."
         ),
     ],
-    out: Annotated[
-        Path, typer.Option("--out", "-o", help="The new dataset folder (an interrupted run continues).")
-    ],
+    out: NewDatasetOut,
     image_size: GenImageSize = None,
     features: Features = "libero-data",
-    cameras: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--cameras", help="Cameras to render: agentview, eye_in_hand (comma-separate); default both."
-        ),
-    ] = None,
+    cameras: RenderCameras = None,
     render_quality: RenderQuality = "full",
     tolerance: Annotated[
         float,

@@ -12,21 +12,26 @@ import typer
 from libero_data.cli.common import RenderQuality, Workers, say, split_list, user_errors
 from libero_data.cli.generate import Features, GenImageSize, KeepWork, episodes_with_progress
 
+#: The cameras a command renders a dataset's frames with (rerender, import).
+RenderCameras = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--cameras", help="Cameras to render: agentview, eye_in_hand (comma-separate); default both."
+    ),
+]
+#: The dataset folder a command writes (rerender, import).
+NewDatasetOut = Annotated[
+    Path, typer.Option("--out", "-o", help="The new dataset folder (an interrupted run continues).")
+]
+
 
 @user_errors
 def rerender_cmd(
     dataset: Annotated[Path, typer.Argument(help="A finished libero-data dataset.")],
-    out: Annotated[
-        Path, typer.Option("--out", "-o", help="The new dataset folder (an interrupted run continues).")
-    ],
+    out: NewDatasetOut,
     image_size: GenImageSize = None,
     features: Features = "libero-data",
-    cameras: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--cameras", help="Cameras to render: agentview, eye_in_hand (comma-separate); default both."
-        ),
-    ] = None,
+    cameras: RenderCameras = None,
     render_quality: RenderQuality = "full",
     workers: Workers = 1,
     keep_work: KeepWork = False,
