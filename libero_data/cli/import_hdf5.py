@@ -65,7 +65,7 @@ def import_cmd(
     """
     import os
 
-    from libero_data.pipeline.importer import import_hdf5, plan_import
+    from libero_data.pipeline.importer import plan_import, run_import
     from libero_data.record.features import CAMERAS, PROFILE_IMAGE_SIZE
     from libero_data.runtime.jobs import Executor
 
@@ -89,15 +89,10 @@ def import_cmd(
     )
     command = "libero-data import " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     episodes_with_progress(
-        lambda show: import_hdf5(
-            files,
+        lambda show: run_import(
+            request,
+            by_task,
             out,
-            image_size=size,
-            features=features,
-            cameras=chosen,
-            render_quality=render_quality,
-            tolerance=tolerance,
-            drop_noops=drop_noops,
             workers=workers,
             executor=executor,
             ray_address=ray_address,

@@ -257,6 +257,36 @@ def import_hdf5(
         tolerance=tolerance,
         drop_noops=drop_noops,
     )
+    return run_import(
+        request,
+        by_task,
+        out,
+        workers=workers,
+        executor=executor,
+        ray_address=ray_address,
+        on_progress=on_progress,
+        on_step=on_step,
+        command=command,
+        keep_work=keep_work,
+    )
+
+
+def run_import(
+    request: GenerateRequest,
+    by_task: dict[int, Any],
+    out: Path,
+    *,
+    workers: int = 1,
+    executor: str = "local",
+    ray_address: str | None = None,
+    on_progress: Callable[[Progress], None] | None = None,
+    on_step: Callable[[str], None] | None = None,
+    command: str = "",
+    keep_work: bool = False,
+) -> Progress:
+    """Carry out a planned import (:func:`plan_import`) into ``out``: the checked records, then
+    ``generate`` renders and publishes them."""
+    out = Path(out).resolve()
     if check_output(request, out) is None:  # not finished before (and nothing else in ``out``)
         if request.suite == str(out):
             out.mkdir(parents=True, exist_ok=True)

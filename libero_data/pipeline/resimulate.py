@@ -39,6 +39,7 @@ def resimulate_episodes(
     assert report.issues is not None
     here = Origin(machine_fingerprint(), expert_code())
     machines = recorded_machines(root)
+    imported_tolerance = _import_tolerance(root)
     picks = sorted({int(i) for i in np.linspace(0, len(episodes) - 1, min(count, len(episodes)))})
     envs: dict[str, LiberoEnv] = {}
     try:
@@ -53,7 +54,7 @@ def resimulate_episodes(
             env = envs[name]
             on_step(f"re-simulating episode {ep['episode_index']} ({name})")
             if "fixtures" in row:  # imported (libero-data import): judged step by step
-                judge_imported(root, env, row, states, actions, tolerance, report)
+                judge_imported(env, row, states, actions, max(tolerance, imported_tolerance), report)
                 continue
             result = replay(env, int(row["reset_seed"]), states, actions)
             key = str(row.get("numeric_key", "unknown"))
@@ -183,24 +184,21 @@ def judge(where: str, replay: Replay, made: Origin, here: Origin, tolerance: flo
 
 
 def judge_imported(
-    root: Path,
     env: Any,
     row: dict[str, Any],
     states: np.ndarray,
     actions: np.ndarray,
-    tolerance: float,
+    limit: float,
     report: Report,
 ) -> None:
     """An imported demonstration, re-simulated one step at a time from each stored state (its
-    fixtures where they stood): the largest deviation within the import's tolerance (or the one
-    asked, if larger), and the goal reached after its last action."""
+    fixtures where they stood): the largest deviation within ``limit`` (the import's tolerance,
+    or the one asked if larger), and the goal reached after its last action."""
     from libero_data.hdf5.checks import step_replay
     from libero_data.hdf5.fixtures import place_fixtures
 
     assert report.issues is not None
     where = f"episode {row['episode_index']}"
-    meta = json.loads((root / "meta" / "libero.json").read_text())
-    limit = max(tolerance, float(meta.get("request", {}).get("import_tolerance", 0.0)))
     dropped = set(row.get("noop_frames", []))
     frames = np.array([i for i in range(int(row.get("frames_in_file", len(actions)))) if i not in dropped])
     env.reset(seed=int(row["reset_seed"]), render=False)
@@ -219,6 +217,15 @@ def judge_imported(
                 f"m or rad), more than the tolerance of {limit:g}",
             )
         )
+
+
+def _import_tolerance(root: Path) -> float:
+    """The tolerance an imported dataset's demonstrations were checked with (0 for others)."""
+    try:
+        meta = json.loads((root / "meta" / "libero.json").read_text())
+        return float(meta.get("request", {}).get("import_tolerance", 0.0))
+    except (OSError, ValueError, AttributeError):
+        return 0.0
 
 
 def recorded_machines(root: Path) -> dict[str, dict[str, Any]]:
