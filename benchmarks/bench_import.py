@@ -3,7 +3,9 @@
 A LIBERO-format HDF5 file of ``--demos`` expert episodes of ``--task`` (from its first stored init
 states; written as LIBERO's ``create_dataset.py`` writes its files, by ``tests/hdf5/libero_files.py``)
 is imported with ``libero-data import`` in a fresh process at 128x128 with both cameras, once per
-``--workers`` value; prints a Markdown table (wall time, per demonstration, frames, dataset size).
+``--workers`` value; prints a Markdown table (wall time, per demonstration, frames, dataset size),
+and before it the checks alone (fixtures, one-step replay, the init state each began from), timed
+in this process as the import's driver runs them before the workers render.
 The demonstrations are the expert's, not LIBERO's human ones (which cannot be downloaded here):
 LIBERO's are longer on most suites (human longest per suite 193-505 steps), and time scales with
 frames. Run: ``python -m benchmarks.bench_import --task libero_spatial/2 --demos 50``.
@@ -26,6 +28,18 @@ def folder_bytes(path: Path) -> int:
     return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
 
 
+def time_checks(source: Path, out: Path) -> float:
+    """Seconds the import's checks of every demonstration in ``source`` take (one process)."""
+    from libero_data.pipeline.importer import import_records, plan_import
+
+    request, by_task = plan_import([source], out)
+    work = out / "work"
+    work.mkdir(parents=True)
+    start = time.monotonic()
+    import_records(request, by_task, work)
+    return time.monotonic() - start
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--task", default="libero_spatial/2")  # 50 of 50 for the expert
@@ -43,6 +57,8 @@ def main() -> None:
         episodes = expert_episodes(task, list(range(args.demos)))
         source = write_libero_file(root / "files" / f"{task.name}_demo.hdf5", task, episodes)
         frames = sum(len(e.actions) - 5 for e in episodes)
+        checks = time_checks(source, root / "checks")
+        print(f"checks alone: {checks:.1f} s ({checks / args.demos:.2f} s per demonstration, one process)\n")
         print(
             f"| workers | wall (s) | per demonstration (s) | frames | dataset (MB) | task {task.id}, {args.demos} demonstrations, {args.image_size} px, 2 cameras |"
         )

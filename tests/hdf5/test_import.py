@@ -110,7 +110,7 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     from libero_bench.data.dataset import DemoDataset
-    from libero_data.hdf5.checks import noop_frames
+    from libero_data.hdf5.checks import nearest_init, noop_frames
     from libero_data.hdf5.fixtures import fixture_poses, place_fixtures
     from libero_data.pipeline.importer import import_hdf5
     from libero_data.pipeline.validate import validate
@@ -154,6 +154,12 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
                 decoded = ds[start + k][OBS_IMAGE].numpy().transpose(1, 2, 0)
                 assert np.abs(decoded - drawn).mean() < 0.03
                 assert np.abs(decoded - drawn[::-1, ::-1]).mean() > 3 * np.abs(decoded - drawn).mean()
+            # The init state it began from, found by stepping the few nearest before stepping,
+            # is the one stepping all 50 finds.
+            stored = task.init_states()
+            assert nearest_init(env, states[0], stored, DROPPED_AT_START) == nearest_init(
+                env, states[0], stored, DROPPED_AT_START, shortlist=len(stored)
+            )
     # Held-out evaluation sees the stored init states the demonstrations began from.
     assert DemoDataset(out).starts_of(range(len(inits))) == (set(inits), set())
     card = (out / "README.md").read_text()
