@@ -99,6 +99,7 @@ def _train(dataset: Path, out: Path, policy: list[str]) -> Path:
 
 
 @pytest.mark.sim
+@pytest.mark.slow  # ~105 s (lerobot-train, then three evaluations); scripts/test runs it after the default suite
 def test_a_lerobot_trained_policy_is_evaluated_with_the_benchmarks_protocol(
     tiny_dataset: Path, procedural_suite: Path, tmp_path: Path
 ) -> None:
