@@ -11,6 +11,7 @@ import pytest
 
 from libero_data.errors import DatasetError
 from libero_data.hdf5.reader import DROPPED_AT_START, read_libero_file
+from libero_data.runtime.folder import DATASET_WORK
 from tests.hdf5.libero_files import Episode, expert_episodes, write_libero_file
 from tests.tiny_data import run_cli
 
@@ -92,20 +93,23 @@ class _Renamed:
 
 @pytest.mark.sim
 @pytest.mark.parametrize(
-    ("ref", "inits", "drop_noops"),
+    ("ref", "inits", "drop_noops", "workers"),
     [
-        ("libero_spatial/0", [3], True),
-        # The second suite runs with the slow tests (scripts/test runs them after the default suite).
-        pytest.param("libero_goal/7", [1], False, marks=pytest.mark.slow),
+        ("libero_spatial/0", [3], True, 1),
+        # The second suite runs with the slow tests (scripts/test runs them after the default
+        # suite): two demonstrations, the import interrupted after checking the first, then
+        # resumed with two worker processes.
+        pytest.param("libero_goal/7", [1, 2], False, 2, marks=pytest.mark.slow),
     ],
 )
 def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
-    ref: str, inits: list[int], drop_noops: bool, tmp_path: Path
+    ref: str, inits: list[int], drop_noops: bool, workers: int, tmp_path: Path
 ) -> None:
     """Two suites: the imported dataset validates (re-simulated step by step), loads with
     `datasets` and LeRobot, holds the source's states and actions exactly (after LIBERO's 5
     dropped steps), its frames are the states rendered upright, and each episode knows the stored
-    init state it began from (which held-out evaluation then skips)."""
+    init state it began from (which held-out evaluation then skips). An import interrupted
+    part-way and run again (in parallel) gives that too."""
     import datasets
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -122,7 +126,19 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
     source = expert_episodes(task, inits)
     path = write_libero_file(tmp_path / f"{task.name}_demo.hdf5", task, source)
     out = tmp_path / "imported"
-    progress = import_hdf5([tmp_path], out, image_size=64, drop_noops=drop_noops)
+    if len(inits) > 1:
+        checked: list[str] = []
+
+        def interrupt(message: str) -> None:
+            checked.append(message)
+            if len(checked) > 1:
+                raise KeyboardInterrupt
+
+        with pytest.raises(KeyboardInterrupt):
+            import_hdf5([tmp_path], out, image_size=64, drop_noops=drop_noops, on_step=interrupt)
+        assert not (out / "meta" / "info.json").exists()  # nothing published yet
+        assert len(list((out / DATASET_WORK / "search").glob("*.npz"))) == 1  # the first one's checks kept
+    progress = import_hdf5([tmp_path], out, image_size=64, drop_noops=drop_noops, workers=workers)
     assert progress.done == len(inits) and progress.failed == 0
 
     report = validate(out, resimulate=len(inits))
