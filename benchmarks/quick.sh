@@ -9,7 +9,7 @@
 #    stored states' arm noise (no stored init state: the evaluation's stored starts are unseen).
 # 2. Each task trained alone (SeqL on a one-task list), quick preset: ResNet-T at the quick
 #    size on 5-frame windows, 16 epochs, batch 32; 20 stored and 20 held-out evaluation starts
-#    per task, `fast` images (4.3x cheaper rollouts on CPU, no detectable effect on success;
+#    per task of at most the suite's step limit (libero_object: 280), `fast` images (4.3x cheaper rollouts on CPU, no detectable effect on success;
 #    RESULTS.md "Fast rendering: policy check").
 # 3. The three tasks in sequence with SeqL and with ER (same data, same seed).
 # 4. Reports (with 95% intervals) and the paired comparison, into benchmarks/results/quick/.
@@ -38,7 +38,7 @@ start_run() {
   local tasks=${rest%%:*} algo=${rest#*:}
   echo "$(date +%H:%M) start $name (log: $work/logs/$name.log)"
   $lb run --data "$work/object-64" --tasks "$tasks" --algo "$algo" --policy resnet_t --preset quick \
-    --workers 2 --threads 1 --out "$work/runs/$name" >"$work/logs/$name.log" 2>&1
+    --set eval_max_steps=suite --workers 2 --threads 1 --out "$work/runs/$name" >"$work/logs/$name.log" 2>&1
 }
 pids=()
 for entry in "${runs[@]}"; do
