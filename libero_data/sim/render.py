@@ -74,6 +74,7 @@ class OffscreenRenderer:
         self._perturb = mujoco.MjvPerturb()
         self._viewport = mujoco.MjrRect(0, 0, size, size)
         self._pixels = np.empty((size, size, 3), dtype=np.uint8)
+        self._facenum = np.array(model.mesh_facenum, copy=True)  # the meshes this context draws
 
     def render(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
         """The upright image of camera ``camera_id`` for the scene in ``data``."""
@@ -90,6 +91,42 @@ class OffscreenRenderer:
         mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
         # Read bottom-up, from cameras mounted rolled by 180 degrees (see LiberoEnv.render).
         return np.ascontiguousarray(self._pixels[::-1, ::-1])
+
+    def render_timed(self, model: Any, data: Any, camera_id: int) -> dict[str, float]:
+        """What :meth:`render` spends, in its three parts, each run to completion (seconds):
+        ``update`` (the scene's poses, and culling), ``draw`` (``mjr_render`` and the GL work it
+        queued, finished) and ``read`` (the pixels back into memory), and ``triangles``: the
+        mesh triangles in the scene drawn. For measurements; the image is :meth:`render`'s."""
+        import time
+
+        import mujoco
+        from OpenGL import GL
+
+        self._ctx.make_current()
+        GL.glFinish()
+        start = time.perf_counter()
+        self._camera.fixedcamid = camera_id
+        mujoco.mjv_updateScene(
+            model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
+        )
+        if self.cull:
+            _cull(self._scene, model, data, camera_id)
+        updated = time.perf_counter()
+        mujoco.mjr_render(self._viewport, self._scene, self._con)
+        GL.glFinish()
+        drawn = time.perf_counter()
+        mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
+        read = time.perf_counter()
+        # A scene's mesh geom names its mesh as 2 * id (2 * id + 1: its convex hull, not drawn here).
+        mesh = int(mujoco.mjtGeom.mjGEOM_MESH)
+        geoms = (self._scene.geoms[k] for k in range(self._scene.ngeom))
+        triangles = sum(int(self._facenum[g.dataid // 2]) for g in geoms if g.type == mesh)
+        return {
+            "update": updated - start,
+            "draw": drawn - updated,
+            "read": read - drawn,
+            "triangles": triangles,
+        }
 
     def gl_info(self, backend: str | None) -> dict[str, str]:
         self._ctx.make_current()
@@ -249,6 +286,10 @@ class FastImages:
 
     def render(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
         return self._built(model)[0].render(model, data, camera_id)
+
+    def render_timed(self, model: Any, data: Any, camera_id: int) -> dict[str, float]:
+        """:meth:`OffscreenRenderer.render_timed` of the ``fast`` renderer."""
+        return self._built(model)[0].render_timed(model, data, camera_id)
 
     def render_full(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
         if self._reference is None:
