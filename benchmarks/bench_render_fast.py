@@ -1,6 +1,10 @@
 """``render_quality="fast"`` against LIBERO's own renderer: speed, image difference, encoding error.
 
-For each scene (one task of each of the five suites) and image size, in one process:
+For each scene and image size, in one process. The scenes: one task of each of the five suites
+(``--tasks``, task 0 of each by default), or with ``--sample N`` at least N tasks drawn with
+``--seed``: one of every layout (the 20 kitchen, living-room and study scenes of libero_90 and
+libero_10, and the tables of libero_spatial, libero_object and libero_goal), then one more of
+any suite none was drawn from, then more at random up to N.
 
 - **speed**: rendered steps (``step`` of a no-op action, both cameras) of LIBERO's
   ``OffScreenRenderEnv`` (the baseline) and of ``LiberoEnv`` at ``fast`` quality, and a step
@@ -11,7 +15,10 @@ For each scene (one task of each of the five suites) and image size, in one proc
   camera on a 0-1 scale; ``full`` is drawn by the fast environment's reference renderer, which
   gives LIBERO's pixels exactly (``tests/sim/test_fast_render.py``);
 - **encoding error**: the same ``full`` frames through the datasets' video encoder (LeRobot's
-  AV1 settings) and back, mean |d| per camera: the error every dataset frame already carries.
+  AV1 settings) and back, mean |d| per camera: the error every dataset frame already carries;
+- **where a fast step goes**: physics, then per camera the scene update, the draw and the pixel
+  read-back, each run to completion (``OffscreenRenderer.render_timed``), the triangles drawn,
+  and the reflective surfaces in view (MuJoCo draws the whole scene again, mirrored, for each).
 
 Prints Markdown and, with ``--results``, replaces the "Fast rendering" section of
 ``benchmarks/RESULTS.md``. The simplified-mesh cache is built first (and timed) in a fresh
@@ -39,6 +46,70 @@ NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
 PUSH = np.array([0.3, -0.2, -0.25, 0.0, 0.0, 0.1, -1.0])
 CAMERAS = ("agentview", "eye_in_hand")
 TASKS = "libero_spatial/0,libero_object/0,libero_goal/0,libero_10/0,libero_90/0"
+SUITES = ("libero_spatial", "libero_object", "libero_goal", "libero_10", "libero_90")
+
+
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``), or the platform's processor string."""
+    import platform
+
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def layout(task: Any) -> str:
+    """A task's scene layout: its libero_90/libero_10 scene (``KITCHEN_SCENE3``...), or its suite's table."""
+    import re
+
+    match = re.match(r"([A-Z_]+_SCENE\d+)_", task.name)
+    return match.group(1) if match else task.suite
+
+
+def sample_scenes(n: int, seed: int) -> list[str]:
+    """At least ``n`` task references drawn with ``seed``: one of every layout, one of any suite
+    left out, then more at random (see the module docstring); sorted by suite and index."""
+    from libero_data.tasks import get_suite
+
+    rng = np.random.default_rng(seed)
+    tasks = [get_suite(s).task(i) for s in SUITES for i in range(len(get_suite(s)))]
+    by_layout: dict[str, list[Any]] = {}
+    for task in tasks:
+        by_layout.setdefault(layout(task), []).append(task)
+    chosen = [group[rng.integers(len(group))] for _, group in sorted(by_layout.items())]
+    for suite in SUITES:
+        if all(t.suite != suite for t in chosen):
+            group = [t for t in tasks if t.suite == suite]
+            chosen.append(group[rng.integers(len(group))])
+    rest = [t for t in tasks if t not in chosen]
+    for i in rng.permutation(len(rest))[: max(0, n - len(chosen))]:
+        chosen.append(rest[int(i)])
+    order = {s: k for k, s in enumerate(SUITES)}
+    return [t.id for t in sorted(chosen, key=lambda t: (order[t.suite], t.index))]
+
+
+def render_parts(env: Any, frames: int) -> dict[str, float]:
+    """Medians over ``frames`` renders of each camera: update, draw and read-back seconds, the
+    triangles drawn, and the reflective planes and boxes in the scene drawn (agentview)."""
+    import mujoco
+
+    model, data = env.sim.model._model, env.sim.data._data
+    out: dict[str, float] = {}
+    for camera in CAMERAS:
+        timed = [env._fast.render_timed(model, data, env._camera_id(camera)) for _ in range(frames)]
+        for part in timed[0]:
+            out[f"{camera}_{part}"] = statistics.median(t[part] for t in timed)
+    scene = env._fast._built(model)[0]._scene
+    env._fast.render_timed(model, data, env._camera_id("agentview"))
+    mirrors = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX))
+    out["reflective"] = sum(
+        1 for k in range(scene.ngeom) if scene.geoms[k].reflectance > 0 and scene.geoms[k].type in mirrors
+    )
+    return out
 
 
 def encoding_error(frames: list[np.ndarray]) -> float:
@@ -68,7 +139,7 @@ def measure(ref: str, size: int, frames: int, reps: int, states: int, cache: str
 
     task = get_task(ref)
     init = task.init_states()[0]
-    out: dict[str, Any] = {"task": ref, "size": size}
+    out: dict[str, Any] = {"task": ref, "size": size, "layout": layout(task)}
     with (
         LiberoEnv(task, EnvConfig(image_size=size, render_quality="fast", mesh_cache=cache)) as fast,
         LiberoEnv(task, EnvConfig(cameras=())) as physics,
@@ -97,6 +168,10 @@ def measure(ref: str, size: int, frames: int, reps: int, states: int, cache: str
             out[f"{c}_max"] = float(d.max() / 255)
             out[f"{c}_over_8"] = float((d.max(axis=-1) > 8).mean())  # share of pixels off by > 8/255
             out[f"{c}_encoding"] = encoding_error(full_frames[c])
+        # Where a fast render's time goes (before LIBERO's environment exists: closing it
+        # leaves other GL contexts of the process unusable).
+        fast.reset(init, seed=0, render=False)
+        out.update(render_parts(fast, frames))
         # Speed, taking turns with LIBERO's own environment.
         libero = OffScreenRenderEnv(
             bddl_file_name=str(task.bddl_path),
@@ -162,22 +237,40 @@ def tables(
         "taking turns in one process; llvmpipe threads: "
         f"{os.environ.get('LP_NUM_THREADS', 'default (one per core)')}. Run: `python -m benchmarks.bench_render_fast "
         f"--sizes {','.join(map(str, args.sizes))} --frames {args.frames} --reps {args.reps} "
-        f"--generate-episodes {args.generate_episodes}`.",
+        f"--generate-episodes {args.generate_episodes}"
+        + (f" --sample {args.sample} --seed {args.seed}" if args.sample else "")
+        + f"`. CPU: {cpu_model()}. Shares of a fast step: physics, drawing (both cameras, finished), "
+        "reading the pixels back, and the rest (scene updates, the step's own work).",
         "",
-        "| scene | size | triangles drawn, full → fast | LIBERO step ms | fast step ms | **fast / LIBERO steps/s** | "
-        "physics ms | fast render ms (2 cameras) |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| scene | layout | size | triangles, full → fast (drawn: agentview, wrist) | reflective | LIBERO step ms | "
+        "fast step ms | **fast / LIBERO** | physics | draw | read-back | other |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
+        step = r["fast_step"]
+        draw = sum(r[f"{c}_draw"] for c in CAMERAS)
+        read = sum(r[f"{c}_read"] for c in CAMERAS)
+        other = step - r["physics_step"] - draw - read
         lines.append(
-            f"| `{r['task']}` | {r['size']} | {r['faces_before'] / 1000:.0f} k → {r['faces_after'] / 1000:.0f} k | "
-            f"{r['libero_step'] * 1e3:.1f} | {r['fast_step'] * 1e3:.1f} | **{r['libero_step'] / r['fast_step']:.2f}×** | "
-            f"{r['physics_step'] * 1e3:.1f} | {r['fast_two_cameras'] * 1e3:.1f} |"
+            f"| `{r['task']}` | {r['layout']} | {r['size']} | {r['faces_before'] / 1000:.0f} k → "
+            f"{r['faces_after'] / 1000:.0f} k ({r['agentview_triangles'] / 1000:.0f} k, "
+            f"{r['eye_in_hand_triangles'] / 1000:.0f} k) | {r['reflective']} | {r['libero_step'] * 1e3:.1f} | "
+            f"{step * 1e3:.1f} | **{r['libero_step'] / step:.2f}×** | {r['physics_step'] / step:.0%} | "
+            f"{draw / step:.0%} | {read / step:.0%} | {other / step:.0%} |"
         )
+    lines += [
+        "",
+        "| size | scenes | min | slowest tenth (10th percentile) | median | all scenes (total time) |",
+    ]
+    lines += ["|---:|---:|---:|---:|---:|---:|"]
     for size in args.sizes:
         mine = [r for r in rows if r["size"] == size]
+        ratios = np.array([r["libero_step"] / r["fast_step"] for r in mine])
         total = sum(r["libero_step"] for r in mine) / sum(r["fast_step"] for r in mine)
-        lines.append(f"| **all scenes** | {size} | | | | **{total:.2f}×** (total time) | | |")
+        lines.append(
+            f"| {size} | {len(mine)} | {ratios.min():.2f}× | {np.percentile(ratios, 10):.2f}× | "
+            f"{np.median(ratios):.2f}× | {total:.2f}× |"
+        )
     lines += [
         "",
         f"Image difference, `fast` against `full` on the same {args.states + 1} states per scene (stored init "
@@ -223,7 +316,9 @@ def tables(
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--tasks", default=TASKS)
+    parser.add_argument("--tasks", default=TASKS, help="comma-separated task references")
+    parser.add_argument("--sample", type=int, default=0, help="draw at least N scenes instead of --tasks")
+    parser.add_argument("--seed", type=int, default=0, help="the draw's seed (with --sample)")
     parser.add_argument("--sizes", type=lambda s: [int(x) for x in s.split(",")], default=[128, 256])
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--reps", type=int, default=3)
@@ -236,7 +331,7 @@ def main() -> None:
     from libero_data.pipeline.mesh_cache import build_mesh_cache
     from libero_data.tasks import get_task
 
-    refs = args.tasks.split(",")
+    refs = sample_scenes(args.sample, args.seed) if args.sample else args.tasks.split(",")
     with tempfile.TemporaryDirectory() as cache:
         build = build_mesh_cache([get_task(r) for r in refs], cache)
         line = f"{build.meshes_built} meshes simplified, {build.meshes_found} shared with an earlier scene"
