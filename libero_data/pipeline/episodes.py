@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.errors import DatasetError
 from libero_data.pipeline.request import GenerateRequest, Slot
 from libero_data.record.features import CAMERAS
-from libero_data.runtime.files import load_record, save_record
+from libero_data.runtime.files import load_record, save_record, write_bytes
 from libero_data.runtime.jobs import WorkerCache, WorkerContext
 from libero_data.seeding import demo_key, episode_seeds
 from libero_data.sim.arm import ARM_INIT_NOISE
@@ -45,6 +46,10 @@ class EpisodeJob:
     task_index: int  # its index in the suite
     ks: tuple[int, ...]
     sim_state_width: int
+    #: Search records written before the job (``import``, ``rerender``), as (slot key, npz
+    #: bytes), for a worker that does not share the driver's files (Ray): written into its
+    #: folder before the job starts.
+    records: tuple[tuple[str, bytes], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -186,6 +191,9 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
 
     request = job.request
     task = get_suite(request.suite).task(job.task_index)
+    for key, data in job.records:
+        if not (ctx.root / search_path(key)).is_file():
+            write_bytes(ctx.root / search_path(key), data)
     done: list[EpisodeDone] = []
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shard-writer")
     pending: tuple[Slot, dict[str, Any], Future[Path] | None] | None = None
@@ -212,6 +220,11 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             search, shard = ctx.root / search_path(slot.key), ctx.root / shard_path(slot.key)
             if search.is_file():
                 record = load_record(search)
+            elif request.imported or request.source:
+                raise DatasetError(
+                    f"episode {slot.key}: its record (written from the source before rendering) is missing; "
+                    "run the command again"
+                )
             else:
                 env, expert = expert_env(ctx.cache, task, *_env_settings(request))
                 record = search_slot(env, expert, task, request, slot)

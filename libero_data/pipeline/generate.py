@@ -120,15 +120,26 @@ class _Run:
         if self.on_progress:
             self.on_progress(self.progress)
 
-    def jobs(self, workers: int) -> list[EpisodeJob]:
-        """Unfinished slots grouped by task; big tasks are split so workers share them."""
+    def jobs(self, workers: int, *, carry_records: bool = False) -> list[EpisodeJob]:
+        """Unfinished slots grouped by task; big tasks are split so workers share them.
+
+        ``carry_records``: each job carries the search records already written for its slots
+        (by ``import`` or ``rerender``), for workers that do not see this machine's files.
+        """
         request = self.request
         chunk = 10 if workers <= 1 else max(2, min(10, request.episodes_per_task // workers or 1))
         jobs = []
         for position, task_index in enumerate(request.tasks):
-            ks = [s.k for s in self.slots if s.position == position and s.key not in self.status]
-            for i in range(0, len(ks), chunk):
-                jobs.append(EpisodeJob(request, position, task_index, tuple(ks[i : i + chunk]), self.width))
+            slots = [s for s in self.slots if s.position == position and s.key not in self.status]
+            for i in range(0, len(slots), chunk):
+                part = slots[i : i + chunk]
+                records = tuple(
+                    (s.key, (self.work / search_path(s.key)).read_bytes())
+                    for s in part
+                    if carry_records and (self.work / search_path(s.key)).is_file()
+                )
+                ks = tuple(s.k for s in part)
+                jobs.append(EpisodeJob(request, position, task_index, ks, self.width, records))
         return jobs
 
     @property
@@ -286,7 +297,8 @@ def generate(
             run.maybe_publish()
 
         with JobRunner(runner_executor, folder.root) as runner:
-            for _ in runner.run(make_episodes, run.jobs(workers), on_event=landed):
+            jobs = run.jobs(workers, carry_records=runner_executor.kind == "ray")
+            for _ in runner.run(make_episodes, jobs, on_event=landed):
                 run.maybe_publish()
         run.maybe_publish(force=True)
     if run.complete and not keep_work:

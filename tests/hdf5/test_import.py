@@ -93,23 +93,24 @@ class _Renamed:
 
 @pytest.mark.sim
 @pytest.mark.parametrize(
-    ("ref", "inits", "drop_noops", "workers"),
+    ("ref", "inits", "drop_noops", "executor"),
     [
-        ("libero_spatial/0", [3], True, 1),
+        ("libero_spatial/0", [3], True, "local"),
         # The second suite runs with the slow tests (scripts/test runs them after the default
         # suite): two demonstrations, the import interrupted after checking the first, then
-        # resumed with two worker processes.
-        pytest.param("libero_goal/7", [1, 2], False, 2, marks=pytest.mark.slow),
+        # resumed on Ray with two workers (whose folders are not the driver's: the checked
+        # records travel with the jobs).
+        pytest.param("libero_goal/7", [1, 2], False, "ray", marks=pytest.mark.slow),
     ],
 )
 def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
-    ref: str, inits: list[int], drop_noops: bool, workers: int, tmp_path: Path
+    ref: str, inits: list[int], drop_noops: bool, executor: str, tmp_path: Path
 ) -> None:
     """Two suites: the imported dataset validates (re-simulated step by step), loads with
     `datasets` and LeRobot, holds the source's states and actions exactly (after LIBERO's 5
     dropped steps), its frames are the states rendered upright, and each episode knows the stored
     init state it began from (which held-out evaluation then skips). An import interrupted
-    part-way and run again (in parallel) gives that too."""
+    part-way and run again (on Ray) gives that too."""
     import datasets
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -138,7 +139,14 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
             import_hdf5([tmp_path], out, image_size=64, drop_noops=drop_noops, on_step=interrupt)
         assert not (out / "meta" / "info.json").exists()  # nothing published yet
         assert len(list((out / DATASET_WORK / "search").glob("*.npz"))) == 1  # the first one's checks kept
-    progress = import_hdf5([tmp_path], out, image_size=64, drop_noops=drop_noops, workers=workers)
+    progress = import_hdf5(
+        [tmp_path],
+        out,
+        image_size=64,
+        drop_noops=drop_noops,
+        workers=2 if executor == "ray" else 1,
+        executor=executor,
+    )
     assert progress.done == len(inits) and progress.failed == 0
 
     report = validate(out, resimulate=len(inits))
