@@ -108,3 +108,29 @@ def _assert_close(made: Any, committed: Any, where: str) -> None:
         assert made == pytest.approx(committed, rel=1e-9, abs=1e-12), where
     else:
         assert made == committed, where
+
+
+#: The quick recipe on one task of each other suite, drawn before any training
+#: (benchmarks/quick_suites.sh), evaluated at each suite's step limit.
+SUITE_RUNS = {"single-spatial-8": "libero_spatial/8", "single-goal-1": "libero_goal/1", "single-long-0": "libero_10/0"}
+
+
+@pytest.mark.parametrize("name", sorted(SUITE_RUNS))
+def test_each_suite_run_is_the_quick_recipe_at_its_suites_step_limit(name: str) -> None:
+    from libero_data.tasks.horizons import SUITE_LIMITS
+
+    config, results = _run(name)
+    assert results.complete, f"{name} did not finish"
+    assert config["preset"] == {**get_preset("quick").to_dict(), "eval_max_steps": "suite"}
+    suite, index = SUITE_RUNS[name].split("/")
+    assert config["dataset"]["suite"] == suite and [t["suite_index"] for t in config["tasks"]] == [int(index)]
+    (task,) = config["evaluation"]["training_starts"].values()
+    assert task["demos_from_stored_inits"] == 0 and task["demos_from_sampler"] == 100
+    for start in STARTS:
+        (final,) = final_rates(results, 1, start)
+        assert final.n == 20
+    limit = SUITE_LIMITS[suite]  # every rollout within its suite's limit, failures cut at it
+    assert all(r["steps"] <= limit for r in results.rollouts)
+    assert all(r["steps"] == limit for r in results.rollouts if not r["success"])
+    report = json.loads((RESULTS / "suites" / "report.json").read_text())
+    assert len(report["groups"]) == len(SUITE_RUNS)
