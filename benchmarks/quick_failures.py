@@ -55,8 +55,7 @@ def failures(run: Path) -> tuple[str, list[dict[str, Any]]]:
     config = json.loads((run / "config.json").read_text())
     (entry,) = config["tasks"]
     task = get_suite(config["dataset"]["suite"]).task(int(entry["suite_index"]))
-    goal = task.problem.goal
-    objects = [arg for atom in getattr(goal, "terms", (goal,)) for arg in atom.args]
+    objects = [arg for atom in task.problem.goal_atoms() for arg in atom.args]
     with LiberoEnv(task, EnvConfig(cameras=())) as env:
         model = env.sim.model._model
         free = {
@@ -94,6 +93,9 @@ def failures(run: Path) -> tuple[str, list[dict[str, Any]]]:
             "lifted_cm": round(100 * float(lift[target].max()), 1),
             "final_cm": round(100 * final, 1),
             "highest": f"{highest} ({100 * float(lift[highest].max()):.1f} cm)",
+            "goal_objects_lifted_cm": ", ".join(
+                f"{o} {100 * float(lift[o].max()):.1f}" for o in dict.fromkeys(objects) if o in free
+            ),
             "held_at_end": held,
             "kind": kind,
         }

@@ -112,7 +112,11 @@ def _assert_close(made: Any, committed: Any, where: str) -> None:
 
 #: The quick recipe on one task of each other suite, drawn before any training
 #: (benchmarks/quick_suites.sh), evaluated at each suite's step limit.
-SUITE_RUNS = {"single-spatial-8": "libero_spatial/8", "single-goal-1": "libero_goal/1", "single-long-0": "libero_10/0"}
+SUITE_RUNS = {
+    "single-spatial-8": "libero_spatial/8",
+    "single-goal-1": "libero_goal/1",
+    "single-long-0": "libero_10/0",
+}
 
 
 @pytest.mark.parametrize("name", sorted(SUITE_RUNS))
