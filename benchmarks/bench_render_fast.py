@@ -98,17 +98,16 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
     import mujoco
 
     model, data = env.sim.model._model, env.sim.data._data
+    scene = env._fast._built(model)[0]._scene
+    mirrors = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX))
     out: dict[str, float] = {}
     for camera in CAMERAS:
         timed = [env._fast.render_timed(model, data, env._camera_id(camera)) for _ in range(frames)]
         for part in timed[0]:
             out[f"{camera}_{part}"] = statistics.median(t[part] for t in timed)
-    scene = env._fast._built(model)[0]._scene
-    env._fast.render_timed(model, data, env._camera_id("agentview"))
-    mirrors = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX))
-    out["reflective"] = sum(
-        1 for k in range(scene.ngeom) if scene.geoms[k].reflectance > 0 and scene.geoms[k].type in mirrors
-    )
+        if camera == "agentview":  # the scene still holds agentview's last render
+            geoms = [scene.geoms[k] for k in range(scene.ngeom)]
+            out["reflective"] = sum(1 for g in geoms if g.reflectance > 0 and g.type in mirrors)
     return out
 
 

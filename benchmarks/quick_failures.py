@@ -45,6 +45,15 @@ def _episodes(run: Path) -> tuple[list[dict[str, Any]], dict[int, tuple[np.ndarr
     return rows, frames
 
 
+def _kind(final: float, highest: float, held: bool) -> str:
+    """The kind of a failure from the object's final and highest lift (m) and the hand at the end."""
+    if final < FELL:
+        return "knocked off"
+    if held and final > LIFTED:
+        return "cut while carrying"
+    return "dropped" if highest > LIFTED else "never lifted"
+
+
 def failures(run: Path) -> tuple[str, list[dict[str, Any]]]:
     """The run's task and one row per failed rollout."""
     import mujoco
@@ -75,15 +84,7 @@ def failures(run: Path) -> tuple[str, list[dict[str, Any]]]:
         highest = max(lift, key=lambda n: lift[n].max())
         held = float(np.abs(grip[-1]).max()) < HELD
         final = float(lift[target][-1])
-        kind = (
-            "knocked off"
-            if final < FELL
-            else "cut while carrying"
-            if held and final > LIFTED
-            else "dropped"
-            if lift[target].max() > LIFTED
-            else "never lifted"
-        )
+        kind = _kind(final, float(lift[target].max()), held)
         item = {
             "rollout": row["key"],
             "start": row["start"],

@@ -192,8 +192,8 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
     request = job.request
     task = get_suite(request.suite).task(job.task_index)
     for key, data in job.records:
-        if not (ctx.root / search_path(key)).is_file():
-            write_bytes(ctx.root / search_path(key), data)
+        if not (path := ctx.root / search_path(key)).is_file():
+            write_bytes(path, data)
     done: list[EpisodeDone] = []
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shard-writer")
     pending: tuple[Slot, dict[str, Any], Future[Path] | None] | None = None

@@ -133,11 +133,8 @@ class _Run:
             slots = [s for s in self.slots if s.position == position and s.key not in self.status]
             for i in range(0, len(slots), chunk):
                 part = slots[i : i + chunk]
-                records = tuple(
-                    (s.key, (self.work / search_path(s.key)).read_bytes())
-                    for s in part
-                    if carry_records and (self.work / search_path(s.key)).is_file()
-                )
+                written = [(s.key, self.work / search_path(s.key)) for s in part] if carry_records else []
+                records = tuple((key, path.read_bytes()) for key, path in written if path.is_file())
                 ks = tuple(s.k for s in part)
                 jobs.append(EpisodeJob(request, position, task_index, ks, self.width, records))
         return jobs

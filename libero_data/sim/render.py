@@ -81,16 +81,22 @@ class OffscreenRenderer:
         import mujoco
 
         self._ctx.make_current()
+        self._update(model, data, camera_id)
+        mujoco.mjr_render(self._viewport, self._scene, self._con)
+        mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
+        # Read bottom-up, from cameras mounted rolled by 180 degrees (see LiberoEnv.render).
+        return np.ascontiguousarray(self._pixels[::-1, ::-1])
+
+    def _update(self, model: Any, data: Any, camera_id: int) -> None:
+        """The scene as camera ``camera_id`` sees ``data`` (geoms out of its view left out)."""
+        import mujoco
+
         self._camera.fixedcamid = camera_id
         mujoco.mjv_updateScene(
             model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
         )
         if self.cull:
             _cull(self._scene, model, data, camera_id)
-        mujoco.mjr_render(self._viewport, self._scene, self._con)
-        mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
-        # Read bottom-up, from cameras mounted rolled by 180 degrees (see LiberoEnv.render).
-        return np.ascontiguousarray(self._pixels[::-1, ::-1])
 
     def render_timed(self, model: Any, data: Any, camera_id: int) -> dict[str, float]:
         """What :meth:`render` spends, in its three parts, each run to completion (seconds):
@@ -105,12 +111,7 @@ class OffscreenRenderer:
         self._ctx.make_current()
         GL.glFinish()
         start = time.perf_counter()
-        self._camera.fixedcamid = camera_id
-        mujoco.mjv_updateScene(
-            model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
-        )
-        if self.cull:
-            _cull(self._scene, model, data, camera_id)
+        self._update(model, data, camera_id)
         updated = time.perf_counter()
         mujoco.mjr_render(self._viewport, self._scene, self._con)
         GL.glFinish()
