@@ -10,7 +10,8 @@ and poses all come from the simulator as it is at that moment).
 
 :func:`fast_renderer` builds that copy: the meshes that cameras see are simplified
 (:mod:`libero_data.sim.meshes`, cached), except those on a camera's own body and below it
-(the gripper under the wrist camera fills a large part of its image at a few centimetres).
+(the gripper under the wrist camera fills a large part of its image at a few centimetres); and
+the wrist camera is drawn without MuJoCo's mirror pass (:func:`mounted_cameras`).
 """
 
 from __future__ import annotations
@@ -39,10 +40,21 @@ DRAWN_GROUPS = (1, 2)
 class OffscreenRenderer:
     """Square images of a model's fixed cameras, in a GL context of its own."""
 
-    def __init__(self, model: Any, size: int, backend: str | None = None, *, cull: bool = False) -> None:
+    def __init__(
+        self,
+        model: Any,
+        size: int,
+        backend: str | None = None,
+        *,
+        cull: bool = False,
+        unmirrored: frozenset[int] = frozenset(),
+    ) -> None:
         import mujoco
 
         self.size = size
+        # Cameras drawn without MuJoCo's mirror pass (which draws every geom again, mirrored in
+        # the scene's first reflective plane or box, whether or not the reflection shows).
+        self.unmirrored = unmirrored
         # Geoms wholly outside a camera's view cost vertex work and no pixels; unless a light
         # casts shadows (which an unseen geom may throw into view), they are left out.
         self.cull = cull and not bool(np.any(model.light_castshadow))
@@ -92,6 +104,7 @@ class OffscreenRenderer:
         import mujoco
 
         self._camera.fixedcamid = camera_id
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = camera_id not in self.unmirrored
         mujoco.mjv_updateScene(
             model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
         )
@@ -236,7 +249,22 @@ def fast_renderer(
     render_model = copy.deepcopy(model)
     for i, tri in faces.items():
         apply_faces(render_model, i, tri)
-    return OffscreenRenderer(render_model, size, backend, cull=True), scene
+    renderer = OffscreenRenderer(
+        render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids)
+    )
+    return renderer, scene
+
+
+def mounted_cameras(model: Any, camera_ids: list[int]) -> frozenset[int]:
+    """The cameras on a body (the wrist camera), which ``fast`` draws without reflections.
+
+    Looking down along the gripper at a reflective surface, such a camera sees in it mostly the
+    mirror image of what stands between them, hidden behind the thing itself: on libero_goal/1
+    (the bowl put on the reflective stove) dropping the mirror pass changed the wrist image by
+    0.0002 on average (at most 0.001 in a frame) and saved ~30% of its render. From the fixed
+    cameras the reflection shows (agentview: 0.0056), so they keep it.
+    """
+    return frozenset(c for c in camera_ids if int(model.cam_bodyid[c]) != 0)
 
 
 def simplified_meshes(
@@ -301,7 +329,7 @@ class FastImages:
         scene = self._fast[1] if self._fast is not None else None
         out: dict[str, Any] = {
             "quality": "fast",
-            "settings": {**MeshSettings().to_dict(), "algorithm": ALGORITHM},
+            "settings": {**MeshSettings().to_dict(), "algorithm": ALGORITHM, "reflections": "fixed cameras"},
         }
         if scene is not None:
             out.update(faces_before=scene.faces_drawn_before, faces_after=scene.faces_drawn_after)

@@ -62,6 +62,31 @@ def test_leaving_out_geoms_outside_the_view_changes_no_pixel() -> None:
             assert np.array_equal(env.render(camera), culled[camera]), camera
 
 
+def test_the_wrist_camera_is_drawn_without_the_mirror_pass_and_nearly_the_same() -> None:
+    import mujoco
+
+    task = get_task("libero_goal/1")  # the bowl onto the stove, a reflective box
+    with LiberoEnv(task, EnvConfig(image_size=128, render_quality="fast")) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        env.render("agentview")
+        renderer = env._fast._fast[0]
+        wrist, front = env._camera_id("eye_in_hand"), env._camera_id("agentview")
+        assert renderer.unmirrored == frozenset({wrist})  # the fixed camera keeps its reflections
+        reflection = mujoco.mjtRndFlag.mjRND_REFLECTION
+        for _ in range(3):
+            for _ in range(8):
+                env.advance(PUSH)
+            unmirrored = env.render("eye_in_hand")
+            assert renderer._scene.flags[reflection] == 0
+            env.render("agentview")
+            assert renderer._scene.flags[reflection] == 1
+            renderer.unmirrored = frozenset()
+            mirrored = env.render("eye_in_hand")
+            renderer.unmirrored = frozenset({wrist})
+            assert _difference(unmirrored, mirrored) < 0.002
+        assert front not in renderer.unmirrored
+
+
 def test_a_bad_render_quality_is_named() -> None:
     from libero_data.errors import InputError
 
