@@ -99,7 +99,7 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
     import mujoco
 
     model, data = env.sim.model._model, env.sim.data._data
-    scene = env._fast._built(model)[0]._scene
+    scene = env._fast._built(model, env._camera_id("agentview"))[0]._scene
     mirrors = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX))
     out: dict[str, float] = {}
     for camera in CAMERAS:
@@ -110,7 +110,8 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
             geoms = [scene.geoms[k] for k in range(scene.ngeom)]
             out["reflective"] = sum(1 for g in geoms if g.reflectance > 0 and g.type in mirrors)
     # What the wrist camera's draw would cost with the mirror pass `fast` leaves out for it.
-    renderer, wrist = env._fast._built(model)[0], env._camera_id("eye_in_hand")
+    wrist = env._camera_id("eye_in_hand")
+    renderer = env._fast._built(model, wrist)[0]
     kept, renderer.unmirrored = renderer.unmirrored, frozenset()
     try:
         timed = [renderer.render_timed(model, data, wrist) for _ in range(frames)]

@@ -29,6 +29,14 @@ def render_cache_cmd(
             help="Cache folder; default $LIBERO_DATA_CACHE, else ~/.cache/libero-data (as the renderer uses).",
         ),
     ] = None,
+    image_size: Annotated[
+        list[int] | None,
+        typer.Option(
+            "--image-size",
+            help="Image sizes to prepare the fixed cameras' coarser distant meshes for (they depend on "
+            "the size); repeat for several. Default: 128.",
+        ),
+    ] = None,
 ) -> None:
     """Build the simplified-mesh cache that `--render-quality fast` draws from, for every task of the suites.
 
@@ -47,7 +55,7 @@ def render_cache_cmd(
         def seen(task: object, b: CacheBuild) -> None:
             bar.update(job, advance=1, meshes=f"{b.meshes_built} built, {b.meshes_found} found")
 
-        build = build_mesh_cache(tasks, cache, on_task=seen)
+        build = build_mesh_cache(tasks, cache, on_task=seen, image_sizes=image_size or [128])
     folder = cache_root(cache) / CACHE_FOLDER
     size = sum(p.stat().st_size for p in folder.glob("*.npz")) if folder.is_dir() else 0
     full, fast = build.triangles_full, build.triangles_fast

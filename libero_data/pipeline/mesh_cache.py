@@ -31,11 +31,15 @@ def build_mesh_cache(
     tasks: Iterable[Any],
     cache_dir: str | Path | None = None,
     on_task: Callable[[Any, CacheBuild], None] | None = None,
+    image_sizes: Iterable[int] = (128,),
 ) -> CacheBuild:
-    """Simplify (or find in the cache) the drawn meshes of every task's scene."""
+    """Simplify (or find in the cache) the drawn meshes of every task's scene, and the coarser
+    copies of its distant meshes that the fixed cameras draw at each of ``image_sizes``."""
     from libero_data.sim import EnvConfig, LiberoEnv
+    from libero_data.sim.distant import distant_errors
     from libero_data.sim.env import CAMERAS
-    from libero_data.sim.render import simplified_meshes
+    from libero_data.sim.meshes import MeshSettings
+    from libero_data.sim.render import drawn_geoms, simplified_meshes
 
     build = CacheBuild()
     start = time.perf_counter()
@@ -44,6 +48,11 @@ def build_mesh_cache(
             model = env.sim.model._model
             ids = [int(env.sim.model.camera_name2id(name)) for name in CAMERAS.values()]
             _, scene = simplified_meshes(model, ids, cache_dir=cache_dir, progress=False)
+            for size in image_sizes:
+                errors = distant_errors(model, ids, size, drawn_geoms(model), MeshSettings().max_error)
+                _, far = simplified_meshes(model, ids, cache_dir=cache_dir, progress=False, errors=errors)
+                build.meshes_built += far.cache.built
+                build.simplify_seconds += far.cache.build_seconds
         build.tasks += 1
         build.meshes_built += scene.cache.built
         build.meshes_found += scene.cache.found

@@ -189,6 +189,18 @@ class CacheReport:
     build_seconds: float = 0.0
     keys: list[str] = field(default_factory=list)
 
+    def merged(self, other: CacheReport) -> CacheReport:
+        """Both lookups' work together."""
+        return CacheReport(
+            found=self.found + other.found,
+            built=self.built + other.built,
+            whole=self.whole + other.whole,
+            faces_before=self.faces_before + other.faces_before,
+            faces_after=self.faces_after + other.faces_after,
+            build_seconds=self.build_seconds + other.build_seconds,
+            keys=self.keys + other.keys,
+        )
+
 
 class MeshCache:
     """Simplified meshes on disk, one ``.npz`` per key, written atomically (safe across workers)."""

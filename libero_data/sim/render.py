@@ -243,12 +243,18 @@ def fast_renderer(
     *,
     backend: str | None = None,
     progress: bool | None = None,
+    errors: dict[int, float] | None = None,
 ) -> tuple[OffscreenRenderer, FastScene]:
-    """A renderer whose context holds simplified copies of ``model``'s drawn meshes."""
-    faces, scene = simplified_meshes(model, camera_ids, settings, cache_dir, progress=progress)
+    """A renderer whose context holds simplified copies of ``model``'s drawn meshes. With
+    ``errors`` (a coarser simplification error for some meshes, see :func:`simplified_meshes`)
+    it is a fixed cameras' renderer, whose large textures are shrunk too (:mod:`.distant`)."""
+    faces, scene = simplified_meshes(model, camera_ids, settings, cache_dir, progress=progress, errors=errors)
     render_model = copy.deepcopy(model)
     for i, tri in faces.items():
         apply_faces(render_model, i, tri)
+    from libero_data.sim.distant import TEXTURE_PER_IMAGE, shrink_textures
+
+    shrink_textures(render_model, TEXTURE_PER_IMAGE["fixed" if errors else "mounted"] * size)
     renderer = OffscreenRenderer(
         render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids)
     )
@@ -274,20 +280,31 @@ def simplified_meshes(
     cache_dir: str | Path | None = None,
     *,
     progress: bool | None = None,
+    errors: dict[int, float] | None = None,
 ) -> tuple[dict[int, np.ndarray], FastScene]:
     """The simplified triangles of the meshes ``model``'s cameras draw (from the cache, or built
-    and cached), leaving whole those on the cameras' own bodies."""
+    and cached), leaving whole those on the cameras' own bodies; mesh ``i`` within
+    ``errors[i]`` metres where given, else ``settings.max_error``."""
     settings = settings or MeshSettings()
     uses = drawn_meshes(model)
     near = camera_meshes(model, camera_ids)
-    meshes = {i: MeshData.from_model(model, i) for i in sorted(set(uses) - near)}
-    faces, report = MeshCache(cache_dir).simplified(meshes, settings, progress=progress)
+    groups: dict[float, dict[int, MeshData]] = {}
+    for i in sorted(set(uses) - near):
+        groups.setdefault((errors or {}).get(i, settings.max_error), {})[i] = MeshData.from_model(model, i)
+    faces: dict[int, np.ndarray] = {}
+    report = CacheReport()
+    for error, meshes in sorted(groups.items()):
+        found, part = MeshCache(cache_dir).simplified(
+            meshes, settings.replace(max_error=error), progress=progress
+        )
+        faces.update(found)
+        report = report.merged(part)
     before = sum(n * int(model.mesh_facenum[i]) for i, n in uses.items())
     after = sum(n * (len(faces[i]) if i in faces else int(model.mesh_facenum[i])) for i, n in uses.items())
     scene = FastScene(
         faces_drawn_before=before,
         faces_drawn_after=after,
-        meshes_simplified=len(meshes) - report.whole,
+        meshes_simplified=len(faces) - report.whole,
         meshes_kept_whole=len(set(uses) & near) + report.whole,
         cache=report,
     )
@@ -297,28 +314,52 @@ def simplified_meshes(
 class FastImages:
     """One environment's ``fast`` images, and full-quality references to measure them by.
 
-    The simplified renderer is built on the first image (meshes from the cache, or simplified
-    and cached), the reference renderer on the first reference image.
+    The simplified renderers are built on the first image (meshes from the cache, or simplified
+    and cached): one for the mounted (wrist) cameras and, when there are fixed cameras too, one
+    for those, whose distant meshes are coarser (:mod:`libero_data.sim.distant`; a GL context
+    each). The reference renderer is built on the first reference image.
     """
 
     def __init__(self, size: int, camera_ids: list[int], backend: str | None, cache_dir: str | None) -> None:
         self.size, self.camera_ids, self.backend, self.cache_dir = size, camera_ids, backend, cache_dir
-        self._fast: tuple[OffscreenRenderer, FastScene] | None = None
+        self._fast: dict[int, tuple[OffscreenRenderer, FastScene]] | None = None  # camera id -> its renderer
         self._reference: OffscreenRenderer | None = None
 
-    def _built(self, model: Any) -> tuple[OffscreenRenderer, FastScene]:
+    def _built(self, model: Any, camera_id: int | None = None) -> tuple[OffscreenRenderer, FastScene]:
+        """The renderer of ``camera_id`` (default: the first camera's), built on first use."""
         if self._fast is None:
-            self._fast = fast_renderer(
-                model, self.size, self.camera_ids, cache_dir=self.cache_dir, backend=self.backend
+            self._fast = self._build(model)
+        return self._fast[self.camera_ids[0] if camera_id is None else camera_id]
+
+    def _build(self, model: Any) -> dict[int, tuple[OffscreenRenderer, FastScene]]:
+        from libero_data.sim.distant import distant_errors
+
+        errors = distant_errors(
+            model, self.camera_ids, self.size, drawn_geoms(model), MeshSettings().max_error
+        )
+        mounted = mounted_cameras(model, self.camera_ids)
+
+        def made(coarser: dict[int, float] | None) -> tuple[OffscreenRenderer, FastScene]:
+            return fast_renderer(
+                model,
+                self.size,
+                self.camera_ids,
+                cache_dir=self.cache_dir,
+                backend=self.backend,
+                errors=coarser,
             )
-        return self._fast
+
+        if not errors or not mounted:  # one renderer serves every camera
+            return dict.fromkeys(self.camera_ids, made(errors))
+        near, far = made(None), made(errors)
+        return {c: near if c in mounted else far for c in self.camera_ids}
 
     def render(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
-        return self._built(model)[0].render(model, data, camera_id)
+        return self._built(model, camera_id)[0].render(model, data, camera_id)
 
     def render_timed(self, model: Any, data: Any, camera_id: int) -> dict[str, float]:
-        """:meth:`OffscreenRenderer.render_timed` of the ``fast`` renderer."""
-        return self._built(model)[0].render_timed(model, data, camera_id)
+        """:meth:`OffscreenRenderer.render_timed` of the camera's ``fast`` renderer."""
+        return self._built(model, camera_id)[0].render_timed(model, data, camera_id)
 
     def render_full(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
         if self._reference is None:
@@ -326,20 +367,32 @@ class FastImages:
         return self._reference.render(model, data, camera_id)
 
     def info(self) -> dict[str, Any]:
-        scene = self._fast[1] if self._fast is not None else None
+        from libero_data.sim.distant import SCREEN_ERROR_PX, TEXTURE_PER_IMAGE
+
         out: dict[str, Any] = {
             "quality": "fast",
-            "settings": {**MeshSettings().to_dict(), "algorithm": ALGORITHM, "reflections": "fixed cameras"},
+            "settings": {
+                **MeshSettings().to_dict(),
+                "algorithm": ALGORITHM,
+                "reflections": "fixed cameras",
+                "distant_meshes": f"{SCREEN_ERROR_PX} px (fixed cameras)",
+                "textures": ", ".join(f"at most {k}x the image ({c})" for c, k in TEXTURE_PER_IMAGE.items()),
+            },
         }
-        if scene is not None:
-            out.update(faces_before=scene.faces_drawn_before, faces_after=scene.faces_drawn_after)
+        if self._fast is not None:  # triangles in the scene as each renderer holds it, the most
+            scenes = [scene for _, scene in self._fast.values()]
+            out.update(
+                faces_before=scenes[0].faces_drawn_before,
+                faces_after=max(s.faces_drawn_after for s in scenes),
+            )
         return out
 
     def gl_info(self, model: Any) -> dict[str, str]:
         return self._built(model)[0].gl_info(self.backend)
 
     def close(self) -> None:
-        for renderer in (self._fast[0] if self._fast else None, self._reference):
+        renderers = {id(r): r for r, _ in (self._fast or {}).values()}
+        for renderer in [*renderers.values(), self._reference]:
             if renderer is not None:
                 renderer.close()
         self._fast = self._reference = None
@@ -362,9 +415,13 @@ def drawn_meshes(model: Any) -> dict[int, int]:
     import mujoco
 
     is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-    shown = np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
-    ids, counts = np.unique(model.geom_dataid[is_mesh & shown], return_counts=True)
+    ids, counts = np.unique(model.geom_dataid[is_mesh & drawn_geoms(model)], return_counts=True)
     return {int(i): int(n) for i, n in zip(ids, counts, strict=True)}
+
+
+def drawn_geoms(model: Any) -> np.ndarray:
+    """Per geom: whether a camera draws it (a visible group, not fully transparent)."""
+    return np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
 
 
 def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:

@@ -49,7 +49,7 @@ def test_leaving_out_geoms_outside_the_view_changes_no_pixel() -> None:
     with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
         env.render("agentview")
-        renderer = env._fast._fast[0]
+        renderer = env._fast._built(env.sim.model._model, env._camera_id("agentview"))[0]
         assert renderer.cull
         culled = {c: env.render(c) for c in CAMERAS}
         # The timed render (for benchmarks) draws the same image and counts what it drew.
@@ -68,23 +68,48 @@ def test_the_wrist_camera_is_drawn_without_the_mirror_pass_and_nearly_the_same()
     task = get_task("libero_goal/1")  # the bowl onto the stove, a reflective box
     with LiberoEnv(task, EnvConfig(image_size=128, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
-        env.render("agentview")
-        renderer = env._fast._fast[0]
+        model = env.sim.model._model
         wrist, front = env._camera_id("eye_in_hand"), env._camera_id("agentview")
-        assert renderer.unmirrored == frozenset({wrist})  # the fixed camera keeps its reflections
+        near, far = (env._fast._built(model, c)[0] for c in (wrist, front))
+        assert near.unmirrored == far.unmirrored == frozenset({wrist})  # the fixed camera keeps them
         reflection = mujoco.mjtRndFlag.mjRND_REFLECTION
         for _ in range(3):
             for _ in range(8):
                 env.advance(PUSH)
             unmirrored = env.render("eye_in_hand")
-            assert renderer._scene.flags[reflection] == 0
+            assert near._scene.flags[reflection] == 0
             env.render("agentview")
-            assert renderer._scene.flags[reflection] == 1
-            renderer.unmirrored = frozenset()
+            assert far._scene.flags[reflection] == 1
+            near.unmirrored = frozenset()
             mirrored = env.render("eye_in_hand")
-            renderer.unmirrored = frozenset({wrist})
+            near.unmirrored = frozenset({wrist})
             assert _difference(unmirrored, mirrored) < 0.002
-        assert front not in renderer.unmirrored
+
+
+def test_the_fixed_camera_draws_distant_still_meshes_coarser_and_the_wrist_does_not() -> None:
+    from libero_data.sim.distant import LEVELS, still_geoms
+    from libero_data.sim.meshes import MeshSettings
+
+    task = get_task("libero_90/0")  # a kitchen: its background and the robot's pedestal stand far
+    with LiberoEnv(task, EnvConfig(image_size=128, render_quality="fast")) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        model = env.sim.model._model
+        wrist, front = env._camera_id("eye_in_hand"), env._camera_id("agentview")
+        (near, near_scene), (far, far_scene) = (env._fast._built(model, c) for c in (wrist, front))
+        assert near is not far and far_scene.faces_drawn_after < 0.8 * near_scene.faces_drawn_after
+        still = still_geoms(model, [front, wrist])
+        names = {model.body(int(model.body_rootid[model.geom_bodyid[g]])).name for g in np.flatnonzero(still)}
+        assert names <= {"world", "robot0_base"}  # never a fixture LIBERO places anew at each reset
+        # Only meshes of still geoms are coarser for the fixed camera; every other mesh is the same.
+        meshes = model.geom_type == 7  # mjGEOM_MESH
+        only_still = set(model.geom_dataid[meshes & still]) - set(model.geom_dataid[meshes & ~still])
+        coarser = set(np.flatnonzero(far._facenum < near._facenum))
+        assert coarser and coarser <= only_still
+        assert np.all(far._facenum <= near._facenum)
+        assert MeshSettings().max_error == LEVELS[0]
+        for camera in CAMERAS:
+            env.render(camera)
+        assert env.render_scene()["settings"]["distant_meshes"].endswith("(fixed cameras)")
 
 
 def test_a_bad_render_quality_is_named() -> None:

@@ -1,0 +1,112 @@
+"""Meshes the fixed cameras only see from afar, simplified to their size on the screen.
+
+``fast`` simplifies every drawn mesh to within :attr:`MeshSettings.max_error` (0.5 mm): what
+the wrist camera needs a few centimetres from a surface. The fixed cameras (agentview) never
+come that close to what cannot move: the robot's base link and pedestal stand ~1.4 m from
+agentview and the kitchen and living-room backgrounds 2-3 m, where 0.5 mm is about a
+hundredth of a pixel at 128x128. For the fixed cameras, each such mesh is simplified to the
+coarsest of :data:`LEVELS` that stays within :data:`SCREEN_ERROR_PX` of a pixel at its vertex
+nearest to any of them; meshes that move, or that LIBERO places anew at every reset (fixtures:
+a cabinet, a stove), keep the 0.5 mm copies, so the choice depends on the model alone and is
+the same in every process whatever it reset to first.
+
+Each renderer's copy of the model also has its large textures halved until they are at most
+:data:`TEXTURE_PER_IMAGE` times the image wide (a 4096x4096 bowl texture is 512x512 for
+agentview and 1024x1024 for the wrist at 128 px): the two GL contexts then hold about what one
+held before (libero_90/0: +512 MiB against +437 MiB; libero_object/0: +515 against +497), and
+the images change by ~0.0001 on average.
+
+What cannot move, from the model alone: geoms welded to the world (``body_weldid == 0``) that
+belong to the world body itself (a scene's background) or to the robot that carries a mounted
+camera (its fixed base link and pedestal). Fixtures are bodies of their own under the world.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+#: The largest simplification error allowed for the fixed cameras, in pixels at the mesh's
+#: nearest vertex. 0.25 px on libero_90/0 at 128 px: agentview drew 54 k triangles instead of
+#: 93 k, mean |fast - full| 0.0031 instead of 0.0021 (measured with the prototype of this module).
+SCREEN_ERROR_PX = 0.25
+#: The simplification errors (metres) a distant mesh may take: few, so the cache holds few copies.
+LEVELS = (0.0005, 0.001, 0.002, 0.004, 0.008)
+#: Textures are halved (2x2 means) while wider than this many times the image, for the fixed
+#: cameras (whose frame never shows more of a texture than that, so the mip levels sampled
+#: stay) and for the mounted ones (a few centimetres from an object).
+TEXTURE_PER_IMAGE = {"fixed": 4, "mounted": 8}
+
+
+def still_geoms(model: Any, camera_ids: list[int]) -> np.ndarray:
+    """Per geom: whether it cannot move and is not a fixture (see the module docstring)."""
+    body = model.geom_bodyid
+    robots = {
+        int(model.body_rootid[model.cam_bodyid[c]]) for c in camera_ids if int(model.cam_bodyid[c]) != 0
+    }
+    owned = (body == 0) | np.isin(model.body_rootid[body], sorted(robots))
+    return (model.body_weldid[body] == 0) & owned
+
+
+def distant_errors(
+    model: Any, camera_ids: list[int], size: int, drawn: np.ndarray, base: float
+) -> dict[int, float]:
+    """Mesh -> simplification error (metres) for the fixed cameras among ``camera_ids`` at
+    ``size`` pixels, for the meshes coarser than ``base`` there. ``drawn``: per geom, whether
+    a camera draws it. Meshes used by any geom that can move or is a fixture are left out."""
+    import mujoco
+
+    fixed = [c for c in camera_ids if int(model.cam_bodyid[c]) == 0]
+    if not fixed:
+        return {}
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)  # the poses of what cannot move, and of the fixed cameras
+    mujoco.mj_camlight(model, data)
+    still = still_geoms(model, camera_ids)
+    meshes = drawn & (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
+    moving = {int(model.geom_dataid[g]) for g in np.flatnonzero(meshes & ~still)}
+    allowed: dict[int, float] = {}  # mesh -> metres that make SCREEN_ERROR_PX at its nearest vertex
+    for g in np.flatnonzero(meshes & still):
+        i = int(model.geom_dataid[g])
+        if i in moving:
+            continue
+        start, count = int(model.mesh_vertadr[i]), int(model.mesh_vertnum[i])
+        world = model.mesh_vert[start : start + count] @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+        for c in fixed:
+            pixels_per_metre = (size / 2) / np.tan(np.deg2rad(model.cam_fovy[c]) / 2)  # at 1 m
+            nearest = float(np.linalg.norm(world - data.cam_xpos[c], axis=1).min())
+            allowed[i] = min(allowed.get(i, np.inf), SCREEN_ERROR_PX * nearest / pixels_per_metre)
+    out = {}
+    for i, metres in allowed.items():
+        level = max((level for level in LEVELS if level <= metres), default=base)
+        if level > base:
+            out[i] = level
+    return out
+
+
+def shrink_textures(model: Any, cap: int) -> int:
+    """Halve ``model``'s 2-D textures (in place: a render copy) while they are wider or taller
+    than ``cap`` and even in both; returns how many shrank."""
+    import mujoco
+
+    shrunk = 0
+    for t in range(model.ntex):
+        if model.tex_type[t] != mujoco.mjtTexture.mjTEXTURE_2D:
+            continue
+        width, height, channels = (
+            int(model.tex_width[t]),
+            int(model.tex_height[t]),
+            int(model.tex_nchannel[t]),
+        )
+        start = int(model.tex_adr[t])
+        image = np.asarray(model.tex_data[start : start + width * height * channels], dtype=np.float32)
+        image = image.reshape(height, width, channels)
+        while max(image.shape[:2]) > cap and image.shape[0] % 2 == 0 and image.shape[1] % 2 == 0:
+            h, w = image.shape[0] // 2, image.shape[1] // 2
+            image = image.reshape(h, 2, w, 2, channels).mean(axis=(1, 3))
+        if image.shape[:2] != (height, width):
+            model.tex_data[start : start + image.size] = np.round(image).astype(np.uint8).reshape(-1)
+            model.tex_height[t], model.tex_width[t] = image.shape[:2]
+            shrunk += 1
+    return shrunk
