@@ -34,7 +34,7 @@ start_run() {
   local name=$1 index=$2
   echo "$(date +%H:%M) start single-$name (log: $work/logs/single-$name.log)"
   $lb run --data "$work/$name-64" --tasks "$index" --algo seql --policy resnet_t --preset quick \
-    --set eval_max_steps=suite --workers 2 --threads 1 --out "$work/runs/single-$name" \
+    --workers 2 --threads 1 --out "$work/runs/single-$name" \
     >"$work/logs/single-$name.log" 2>&1
 }
 pids=()

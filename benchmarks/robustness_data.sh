@@ -44,7 +44,7 @@ train() {  # name data task [mix]
   [[ -n "$mix" ]] && extra=(--mix "$mix" --mix-weight 0.5)
   echo "$(date +%H:%M) start $name (log: $work/logs/$name.log)"
   $lb run --data "$data" --tasks "$index" --algo seql --policy resnet_t --preset quick \
-    --set eval_max_steps=suite --workers 2 --threads 1 "${extra[@]}" --out "$work/runs/$name" \
+    --workers 2 --threads 1 "${extra[@]}" --out "$work/runs/$name" \
     >"$work/logs/$name.log" 2>&1
 }
 jobs_list=()

@@ -159,8 +159,8 @@ SMOKE = TrainPreset(
 #: Learning shown on two CPU cores in about an hour per task (generation included): 100
 #: demonstrations per task at 64x64, ResNet-T at the ``quick`` size (0.44 M parameters) on
 #: 5-frame windows, batch 32, 16 epochs; one evaluation at the end (20 stored and 20 held-out
-#: starts per task, at most 300 steps: libero_object's expert needs 130-300, LeRobot's LIBERO env
-#: gives the suite 280) with ``fast`` images (simplified meshes, 4.3x cheaper rollouts on CPU).
+#: starts per task, each cut at its suite's step limit: libero_object 280, as LeRobot's LIBERO env
+#: gives it) with ``fast`` images (simplified meshes, 4.3x cheaper rollouts on CPU).
 #: A 5-frame window halves the cost of a sample, so 16 epochs cost what 8 epochs of 10-frame
 #: windows did; on libero_object/1 those 8 epochs reached 15/20 and 9/20, these 16 20/20 and
 #: 19/20. Measured: benchmarks/RESULTS.md, "Learning on CPU".
@@ -176,7 +176,7 @@ QUICK = TrainPreset(
     eval_first_epoch=False,
     eval_rollouts=20,
     eval_heldout=20,
-    eval_max_steps=300,
+    eval_max_steps=SUITE,
     eval_render_quality="fast",
     seed=0,
 )
