@@ -109,6 +109,7 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
         if camera == "agentview":  # the scene still holds agentview's last render
             geoms = [scene.geoms[k] for k in range(scene.ngeom)]
             out["reflective"] = sum(1 for g in geoms if g.reflectance > 0 and g.type in mirrors)
+            out["lights"] = int(scene.nlight)
     # What the wrist camera's draw would cost with the mirror pass `fast` leaves out for it.
     wrist = env._camera_id("eye_in_hand")
     renderer = env._fast._built(model, wrist)[0]
@@ -260,7 +261,7 @@ def tables(
         "`fast` leaves out for that camera (the same where the scene has no reflective surface); agentview's "
         "draw as `fast` makes it and with every mesh at 0.5 mm (the wrist's renderer), triangles drawn.",
         "",
-        "| scene | layout | size | triangles, full → fast (drawn: agentview, wrist) | reflective | LIBERO step ms | "
+        "| scene | layout | size | triangles, full → fast (drawn: agentview, wrist) | reflective, lights | LIBERO step ms | "
         "fast step ms | **fast / LIBERO** | physics | draw | read-back | other | wrist draw, with its mirror pass | "
         "agentview draw, with 0.5 mm distant meshes |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
@@ -273,7 +274,7 @@ def tables(
         lines.append(
             f"| `{r['task']}` | {r['layout']} | {r['size']} | {r['faces_before'] / 1000:.0f} k → "
             f"{r['faces_after'] / 1000:.0f} k ({r['agentview_triangles'] / 1000:.0f} k, "
-            f"{r['eye_in_hand_triangles'] / 1000:.0f} k) | {r['reflective']} | {r['libero_step'] * 1e3:.1f} | "
+            f"{r['eye_in_hand_triangles'] / 1000:.0f} k) | {r['reflective']}, {r['lights']} | {r['libero_step'] * 1e3:.1f} | "
             f"{step * 1e3:.1f} | **{r['libero_step'] / step:.2f}×** | {r['physics_step'] / step:.0%} | "
             f"{draw / step:.0%} | {read / step:.0%} | {other / step:.0%} | "
             f"{r['eye_in_hand_draw'] * 1e3:.1f} → {r['eye_in_hand_draw_mirrored'] * 1e3:.1f} ms | "
