@@ -44,7 +44,12 @@ def _region(region: Region) -> list[str]:
 
 
 def _typed(entities: tuple[Entity, ...]) -> list[str]:
-    return [f"    {e.name} - {e.category}" for e in entities]
+    """One line per category, its names together, as LIBERO writes them: LIBERO's parser keeps
+    only the last line of a category, so two bowls on two lines would lose the first."""
+    names: dict[str, list[str]] = {}
+    for e in entities:
+        names.setdefault(e.category, []).append(e.name)
+    return [f"    {' '.join(group)} - {category}" for category, group in names.items()]
 
 
 def write(problem: Problem) -> str:

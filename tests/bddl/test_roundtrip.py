@@ -47,3 +47,15 @@ def test_nested_or_and_not_round_trip() -> None:
     first = problem.goal.terms[0]
     assert isinstance(first, Or) and isinstance(first.terms[1], Not)
     assert parse(write(problem)) == problem
+
+
+def test_objects_of_one_category_are_written_on_one_line_which_libero_keeps(tmp_path) -> None:
+    from libero.libero.envs.bddl_utils import robosuite_parse_problem
+
+    problem = parse_file(get_suite("libero_spatial").task(8).bddl_path)  # two black bowls
+    text = write(problem)
+    assert "akita_black_bowl_1 akita_black_bowl_2 - akita_black_bowl" in text
+    path = tmp_path / "written.bddl"
+    path.write_text(text)
+    parsed = robosuite_parse_problem(str(path))  # LIBERO's own parser keeps a category's last line
+    assert sorted(parsed["objects"]["akita_black_bowl"]) == ["akita_black_bowl_1", "akita_black_bowl_2"]
