@@ -47,10 +47,12 @@ def build_mesh_cache(
         with LiberoEnv(task, EnvConfig(cameras=())) as env:
             model = env.sim.model._model
             ids = [int(env.sim.model.camera_name2id(name)) for name in CAMERAS.values()]
-            _, scene = simplified_meshes(model, ids, cache_dir=cache_dir, progress=False)
+            faces, scene = simplified_meshes(model, ids, cache_dir=cache_dir, progress=False)
             for size in image_sizes:
                 errors = distant_errors(model, ids, size, drawn_geoms(model), MeshSettings().max_error)
-                _, far = simplified_meshes(model, ids, cache_dir=cache_dir, progress=False, errors=errors)
+                _, far = simplified_meshes(
+                    model, ids, cache_dir=cache_dir, progress=False, errors=errors, reuse=faces
+                )
                 build.meshes_built += far.cache.built
                 build.simplify_seconds += far.cache.build_seconds
         build.tasks += 1

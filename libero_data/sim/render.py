@@ -11,7 +11,7 @@ and poses all come from the simulator as it is at that moment).
 :func:`fast_renderer` builds that copy: the meshes that cameras see are simplified
 (:mod:`libero_data.sim.meshes`, cached), except those on a camera's own body and below it
 (the gripper under the wrist camera fills a large part of its image at a few centimetres); and
-the wrist camera is drawn without MuJoCo's mirror pass (:func:`mounted_cameras`).
+the wrist camera is drawn without MuJoCo's mirror pass (:func:`.distant.mounted_cameras`).
 """
 
 from __future__ import annotations
@@ -238,39 +238,22 @@ def fast_renderer(
     model: Any,
     size: int,
     camera_ids: list[int],
-    settings: MeshSettings | None = None,
-    cache_dir: str | Path | None = None,
-    *,
-    backend: str | None = None,
-    progress: bool | None = None,
-    errors: dict[int, float] | None = None,
-) -> tuple[OffscreenRenderer, FastScene]:
-    """A renderer whose context holds simplified copies of ``model``'s drawn meshes. With
-    ``errors`` (a coarser simplification error for some meshes, see :func:`simplified_meshes`)
-    it is a fixed cameras' renderer, whose large textures are shrunk too (:mod:`.distant`)."""
-    faces, scene = simplified_meshes(model, camera_ids, settings, cache_dir, progress=progress, errors=errors)
+    faces: dict[int, np.ndarray],
+    texture_cap: int,
+    backend: str | None,
+) -> OffscreenRenderer:
+    """A renderer whose context holds ``model`` with the simplified ``faces``
+    (:func:`simplified_meshes`) and textures at most ``texture_cap`` wide; the mounted cameras
+    among ``camera_ids`` are drawn without the mirror pass."""
+    from libero_data.sim.distant import mounted_cameras, shrink_textures
+
     render_model = copy.deepcopy(model)
     for i, tri in faces.items():
         apply_faces(render_model, i, tri)
-    from libero_data.sim.distant import TEXTURE_PER_IMAGE, shrink_textures
-
-    shrink_textures(render_model, TEXTURE_PER_IMAGE["fixed" if errors else "mounted"] * size)
-    renderer = OffscreenRenderer(
+    shrink_textures(render_model, texture_cap)
+    return OffscreenRenderer(
         render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids)
     )
-    return renderer, scene
-
-
-def mounted_cameras(model: Any, camera_ids: list[int]) -> frozenset[int]:
-    """The cameras on a body (the wrist camera), which ``fast`` draws without reflections.
-
-    Looking down along the gripper at a reflective surface, such a camera sees in it mostly the
-    mirror image of what stands between them, hidden behind the thing itself: on libero_goal/1
-    (the bowl put on the reflective stove) dropping the mirror pass changed the wrist image by
-    0.0002 on average (at most 0.001 in a frame) and saved ~30% of its render. From the fixed
-    cameras the reflection shows (agentview: 0.0056), so they keep it.
-    """
-    return frozenset(c for c in camera_ids if int(model.cam_bodyid[c]) != 0)
 
 
 def simplified_meshes(
@@ -281,17 +264,23 @@ def simplified_meshes(
     *,
     progress: bool | None = None,
     errors: dict[int, float] | None = None,
+    reuse: dict[int, np.ndarray] | None = None,
 ) -> tuple[dict[int, np.ndarray], FastScene]:
     """The simplified triangles of the meshes ``model``'s cameras draw (from the cache, or built
     and cached), leaving whole those on the cameras' own bodies; mesh ``i`` within
-    ``errors[i]`` metres where given, else ``settings.max_error``."""
+    ``errors[i]`` metres where given, else ``settings.max_error``. ``reuse``: triangles already
+    simplified at ``settings.max_error`` (an earlier call's), not looked up again."""
     settings = settings or MeshSettings()
     uses = drawn_meshes(model)
     near = camera_meshes(model, camera_ids)
+    faces: dict[int, np.ndarray] = {}
     groups: dict[float, dict[int, MeshData]] = {}
     for i in sorted(set(uses) - near):
-        groups.setdefault((errors or {}).get(i, settings.max_error), {})[i] = MeshData.from_model(model, i)
-    faces: dict[int, np.ndarray] = {}
+        error = (errors or {}).get(i, settings.max_error)
+        if reuse is not None and error == settings.max_error:
+            faces[i] = reuse[i]
+        else:
+            groups.setdefault(error, {})[i] = MeshData.from_model(model, i)
     report = CacheReport()
     for error, meshes in sorted(groups.items()):
         found, part = MeshCache(cache_dir).simplified(
@@ -304,8 +293,9 @@ def simplified_meshes(
     scene = FastScene(
         faces_drawn_before=before,
         faces_drawn_after=after,
-        meshes_simplified=len(faces) - report.whole,
-        meshes_kept_whole=len(set(uses) & near) + report.whole,
+        meshes_simplified=sum(len(f) < int(model.mesh_facenum[i]) for i, f in faces.items()),
+        meshes_kept_whole=len(set(uses) & near)
+        + sum(len(f) == int(model.mesh_facenum[i]) for i, f in faces.items()),
         cache=report,
     )
     return faces, scene
@@ -332,27 +322,30 @@ class FastImages:
         return self._fast[self.camera_ids[0] if camera_id is None else camera_id]
 
     def _build(self, model: Any) -> dict[int, tuple[OffscreenRenderer, FastScene]]:
-        from libero_data.sim.distant import distant_errors
+        """The mounted cameras' renderer (0.5 mm meshes, textures up to 8x the image) and, where
+        the fixed cameras have distant meshes to draw coarser or there is no mounted camera, the
+        fixed cameras' own (textures up to 4x); otherwise the mounted cameras' serves all."""
+        from libero_data.sim.distant import TEXTURE_PER_IMAGE, distant_errors, mounted_cameras
 
-        errors = distant_errors(
-            model, self.camera_ids, self.size, drawn_geoms(model), MeshSettings().max_error
-        )
-        mounted = mounted_cameras(model, self.camera_ids)
-
-        def made(coarser: dict[int, float] | None) -> tuple[OffscreenRenderer, FastScene]:
-            return fast_renderer(
-                model,
-                self.size,
-                self.camera_ids,
-                cache_dir=self.cache_dir,
-                backend=self.backend,
-                errors=coarser,
-            )
-
-        if not errors or not mounted:  # one renderer serves every camera
-            return dict.fromkeys(self.camera_ids, made(errors))
-        near, far = made(None), made(errors)
-        return {c: near if c in mounted else far for c in self.camera_ids}
+        ids, size, cap = self.camera_ids, self.size, TEXTURE_PER_IMAGE
+        faces, scene = simplified_meshes(model, ids, cache_dir=self.cache_dir)
+        mounted = mounted_cameras(model, ids)
+        fixed = [c for c in ids if c not in mounted]
+        out: dict[int, tuple[OffscreenRenderer, FastScene]] = {}
+        if mounted:
+            near = (fast_renderer(model, size, ids, faces, cap["mounted"] * size, self.backend), scene)
+            out.update(dict.fromkeys(mounted, near))
+        errors = distant_errors(model, ids, size, drawn_geoms(model), MeshSettings().max_error)
+        if fixed and mounted and not errors:
+            out.update(dict.fromkeys(fixed, near))
+        elif fixed:
+            if errors:
+                faces, scene = simplified_meshes(
+                    model, ids, cache_dir=self.cache_dir, errors=errors, reuse=faces
+                )
+            far = (fast_renderer(model, size, ids, faces, cap["fixed"] * size, self.backend), scene)
+            out.update(dict.fromkeys(fixed, far))
+        return out
 
     def render(self, model: Any, data: Any, camera_id: int) -> np.ndarray:
         return self._built(model, camera_id)[0].render(model, data, camera_id)
@@ -428,7 +421,9 @@ def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:
     """Meshes on the bodies of cameras mounted on a body (not the world), and on their descendants."""
     import mujoco
 
-    roots = {int(model.cam_bodyid[c]) for c in camera_ids} - {0}
+    from libero_data.sim.distant import mounted_cameras
+
+    roots = {int(model.cam_bodyid[c]) for c in mounted_cameras(model, camera_ids)}
     if not roots:
         return set()
     inside = np.zeros(model.nbody, dtype=bool)
