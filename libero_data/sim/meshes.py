@@ -44,10 +44,17 @@ class MeshSettings(Config):
 
     ``max_error`` is a distance in metres: 0.5 mm is under a third of a pixel for an object
     30 cm from the wrist camera at 128x128, and a tenth of one at the agentview camera.
+    ``texcoord_weight`` and ``normal_weight`` scale how much a change of texture coordinate or
+    normal counts against ``max_error`` beside the change of shape. At 0.1, texture coordinates
+    drifted far enough that the wood of a table or the print on a bowl slid under the wrist
+    camera (libero_90/63: mean |fast - full| 0.0117, above
+    :data:`~libero_data.sim.render.FAST_MEAN_BOUND`, nearly all of it inside surfaces, not along
+    silhouettes); at 10 the same image differs by 0.0056 for 1% more triangles (59.7 k against
+    59.0 k drawn; a one-off script, 2026-11-27).
     """
 
     max_error: float = 0.0005
-    texcoord_weight: float = 0.1
+    texcoord_weight: float = 10.0
     normal_weight: float = 0.1
     min_faces: int = 64  # meshes with at most this many triangles are drawn as they are
 
