@@ -20,7 +20,7 @@ from libero_bench.robustness.paired import compare_sweeps, mean_difference, writ
 
 TRAINED = ("camera", "lighting", "texture", "noise", "robot_init")
 NOT_TRAINED = ("layout", "distractors", "swap", "language")
-TASKS = {"object-0": ("single-0", "mixed-object-0"), "spatial-8": ("single-spatial-8", "mixed-spatial-8")}
+TASKS = {task: (f"single-{task}", f"mixed-{task}") for task in ("object-0", "spatial-8")}
 GOAL = 0.30  # points gained at level 3, averaged over the trained kinds
 
 
@@ -31,17 +31,25 @@ def _line(what: str, figure: dict[str, Any]) -> str:
 def summary(results: Path) -> str:
     sweeps = results / "sweeps"
     lines = ["# Robustness through data: unperturbed-only (A) against mixed (B) training", ""]
-    pooled_a, pooled_b = [], []
+    pooled_a, pooled_b, swept = [], [], []
     for task, (a, b) in TASKS.items():
+        if not ((sweeps / a / "robustness.json").is_file() and (sweeps / b / "robustness.json").is_file()):
+            continue
+        swept.append(task)
         compared = compare_sweeps(sweeps / a, sweeps / b)
         write_comparison(compared, results / task)
         pooled_a.append(sweeps / a)
         pooled_b.append(sweeps / b)
+    if not swept:
+        raise SystemExit(f"no task has both sweeps in {sweeps}: run benchmarks/robustness_data.sh first")
+    missing = [task for task in TASKS if task not in swept]
     pooled = compare_sweeps(pooled_a, pooled_b)
     write_comparison(pooled, results / "pooled")
     base = pooled["grid"][TRAINED[0]]["0"]
     lines += [
-        "Both tasks pooled (10 held-out placements per task and cell, the same for A and B). "
+        f"Tasks swept: {', '.join(swept)}"
+        + (f" (not yet: {', '.join(missing)})" if missing else "")
+        + ". Pooled over them (10 held-out placements per task and cell, the same for A and B), "
         "B − A with its 95% paired bootstrap interval:",
         "",
         "| what | B − A | 95% interval |",
@@ -67,7 +75,7 @@ def summary(results: Path) -> str:
         f"Goal: +{GOAL:.0%} averaged over the trained kinds at level 3: **{verdict}** "
         f"({at3['difference']:+.0%} [{at3['low']:+.0%}, {at3['high']:+.0%}]). Level 5 was never "
         "trained on (the mixed data holds levels 1-3). Per kind and level: `pooled/compare.md`, "
-        "per task: `object-0/compare.md`, `spatial-8/compare.md`.",
+        "per task: " + ", ".join(f"`{task}/compare.md`" for task in swept) + ".",
         "",
     ]
     return "\n".join(lines)
