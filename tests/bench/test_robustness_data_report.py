@@ -1,0 +1,45 @@
+"""``benchmarks/robustness_data_report.py`` on synthetic sweeps: it pools the tasks swept so far,
+names those not yet swept, and leaves out a kind a task has no variant of (no simulation)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from benchmarks.robustness_data_report import NOT_TRAINED, TRAINED, summary
+from libero_bench.robustness.cells import Cell, table
+
+TASK = "pick_up_the_alphabet_soup_and_place_it_in_the_basket"
+KINDS = tuple(k for k in (*TRAINED, *NOT_TRAINED) if k != "swap")  # libero_object/0 has no swap
+LEVELS = (1, 3, 5)
+N = 10
+
+
+def _sweep(folder: Path, wins: int, perturbed_wins: int) -> None:
+    cells = [Cell(TASK, "", 0, TASK, "pick", "x.bddl")]
+    cells += [Cell(TASK, k, lv, f"{TASK}__{k}_l{lv}", "pick", "x.bddl") for k in KINDS for lv in LEVELS]
+    outcomes = {c.name: [i < (perturbed_wins if c.kind else wins) for i in range(N)] for c in cells}
+    folder.mkdir(parents=True)
+    report = {
+        "policy": str(folder),
+        "policy_name": folder.name,
+        "request": {"tasks": [TASK], "kinds": list(KINDS), "levels": list(LEVELS), "rollouts": N},
+        "table": table(cells, outcomes, KINDS, LEVELS),
+        "heldout_seeds": {TASK: list(range(100, 100 + N))},
+        "outcomes": outcomes,
+    }
+    (folder / "robustness.json").write_text(json.dumps(report))
+
+
+def test_the_report_pools_what_was_swept(tmp_path: Path) -> None:
+    _sweep(tmp_path / "sweeps" / "single-object-0", wins=8, perturbed_wins=2)
+    _sweep(tmp_path / "sweeps" / "mixed-object-0", wins=8, perturbed_wins=7)
+    text = summary(tmp_path)
+    assert "Tasks swept: object-0 (not yet: spatial-8)" in text
+    assert "| trained kinds, level 3 | +50% |" in text
+    assert "kinds not trained on (layout, distractors, language), level 5 | +50% |" in text
+    assert "**met** (+50%" in text
+    for folder in ("object-0", "pooled"):
+        assert (tmp_path / folder / "compare.json").is_file() and (
+            tmp_path / folder / "compare.png"
+        ).is_file()
