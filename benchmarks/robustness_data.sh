@@ -18,10 +18,12 @@
 #
 # Each task is finished whole (data, both runs, both sweeps) before the next starts, and a task
 # whose two sweeps are already in benchmarks/results/robustness_data/ is skipped: the committed
-# sweeps are what carries over when WORK_DIR does not. Within a task every step resumes when run
+# sweeps are what carries over when WORK_DIR does not. Each run's folder is committed with its
+# final checkpoint (safetensors, ~2 MB), so a run whose sweep was cut short is restored, not
+# trained again (its data is made again: the sweep draws held-out starts that avoid it). Within a task every step resumes when run
 # again (generation per episode, training per epoch, sweeps per rollout). The two runs of a task
 # go side by side, one torch thread each. Reports, comparisons, plots and each run's
-# config.json / results.json go to benchmarks/results/robustness_data/.
+# config.json / results.json / timings / checkpoint go to benchmarks/results/robustness_data/.
 # Cost on 2 cores: per task ~25 min of data, ~50 min for the two runs, ~50 min for the sweeps.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -40,6 +42,11 @@ mkdir -p "$work/logs"
 
 train() {  # name data task [mix]
   local name=$1 data=$2 index=$3 mix=${4:-}
+  if [[ ! -d $work/runs/$name && -f $results/runs/$name/checkpoints/task_000.safetensors ]]; then
+    echo "$(date +%H:%M) $name: trained before, its committed run folder restored"
+    mkdir -p "$work/runs" && cp -r "$results/runs/$name" "$work/runs/$name"
+    return
+  fi
   local extra=()
   [[ -n "$mix" ]] && extra=(--mix "$mix" --mix-weight 0.5)
   echo "$(date +%H:%M) train $name (log: $work/logs/$name.log)"
@@ -55,7 +62,7 @@ sweep() {  # name suite/task
     --render-quality fast --workers 2 --out "$work/sweeps/$name" >"$work/logs/sweep-$name.log" 2>&1
   mkdir -p "$results/sweeps/$name" "$results/runs/$name"
   cp "$work/sweeps/$name"/robustness.{json,md,png} "$results/sweeps/$name/"
-  cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
+  cp -r "$work/runs/$name"/{config.json,results.json,timings.jsonl,checkpoints} "$results/runs/$name/"
 }
 
 for name in "${chosen[@]}"; do
