@@ -94,7 +94,9 @@ def save_npz(path: Path, **arrays: Any) -> Path:
     """Save arrays as ``.npz`` at ``path`` atomically."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.npz")
+    # a name of its own per process: two processes storing the same entry (the mesh cache, built
+    # by parallel workers) must not move each other's temporary file away
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")
     np.savez(tmp, **arrays)
     with tmp.open("rb") as f:
         os.fsync(f.fileno())
