@@ -44,7 +44,8 @@ def summary(results: Path) -> str:
         raise SystemExit(f"no task has both sweeps in {sweeps}: run benchmarks/robustness_data.sh first")
     missing = [task for task in TASKS if task not in swept]
     pooled = compare_sweeps(pooled_a, pooled_b)
-    write_comparison(pooled, results / "pooled")
+    if len(swept) > 1:  # over one task, the pooled comparison is that task's, already written
+        write_comparison(pooled, results / "pooled")
     base = pooled["grid"][TRAINED[0]]["0"]
     lines += [
         f"Tasks swept: {', '.join(swept)}"
@@ -79,8 +80,10 @@ def summary(results: Path) -> str:
         "",
         f"Goal: +{GOAL:.0%} averaged over the trained kinds at level 3: **{verdict}** "
         f"({at3['difference']:+.0%} [{at3['low']:+.0%}, {at3['high']:+.0%}]). Level 5 was never "
-        "trained on (the mixed data holds levels 1-3). Per kind and level: `pooled/compare.md`, "
-        "per task: " + ", ".join(f"`{task}/compare.md`" for task in swept) + ".",
+        "trained on (the mixed data holds levels 1-3). Per kind and level"
+        + (": `pooled/compare.md`, per task: " if len(swept) > 1 else ": ")
+        + ", ".join(f"`{task}/compare.md`" for task in swept)
+        + ".",
         "",
     ]
     return "\n".join(lines)
