@@ -39,7 +39,7 @@ def build_mesh_cache(
     from libero_data.sim.distant import distant_errors
     from libero_data.sim.env import CAMERAS
     from libero_data.sim.meshes import MeshSettings
-    from libero_data.sim.render import drawn_geoms, simplified_meshes
+    from libero_data.sim.render import detailed_objects, drawn_geoms, simplified_meshes
 
     build = CacheBuild()
     start = time.perf_counter()
@@ -48,6 +48,9 @@ def build_mesh_cache(
             model = env.sim.model._model
             ids = [int(env.sim.model.camera_name2id(name)) for name in CAMERAS.values()]
             faces, scene = simplified_meshes(model, ids, cache_dir=cache_dir, progress=False)
+            _, detail = detailed_objects(model, ids, cache_dir=cache_dir, progress=False)
+            build.meshes_built += detail.built
+            build.simplify_seconds += detail.build_seconds
             for size in image_sizes:
                 errors = distant_errors(model, ids, size, drawn_geoms(model), MeshSettings().max_error)
                 _, far = simplified_meshes(

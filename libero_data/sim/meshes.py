@@ -51,18 +51,29 @@ class MeshSettings(Config):
     :data:`~libero_data.sim.render.FAST_MEAN_BOUND`, nearly all of it inside surfaces, not along
     silhouettes); at 10 the same image differs by 0.0056 for 1% more triangles (59.7 k against
     59.0 k drawn; a one-off script, 2026-11-27).
+
+    ``object_normal_weight`` replaces ``normal_weight`` in the detailed copies of free objects'
+    meshes (bodies on a free joint: what the tasks move) that a mounted camera draws while it is
+    near them (:class:`~libero_data.sim.render.NearDetail`). A few centimetres from the wrist
+    camera a drifted normal moves the shading inside the object: pushing down onto
+    libero_90/23's bowl, 96% of the wrist image's |fast - full| (0.0123, above the bound) lay
+    inside the bowl; with the bowl at 1.0 (15.8 k of its 42.5 k triangles instead of 4.2 k) it
+    was 0.0060. All free objects at 1.0 all the time cost libero_object/8 79% more triangles
+    and ~57% more render time, hence only near (one-off scripts, 2026-11-27).
     """
 
     max_error: float = 0.0005
     texcoord_weight: float = 10.0
     normal_weight: float = 0.1
+    object_normal_weight: float = 1.0
     min_faces: int = 64  # meshes with at most this many triangles are drawn as they are
 
     def __post_init__(self) -> None:
         if not 0.0 < self.max_error < 0.1:
             self._fail("max_error", "must be in (0, 0.1) metres")
-        if self.texcoord_weight < 0 or self.normal_weight < 0:
-            self._fail("texcoord_weight" if self.texcoord_weight < 0 else "normal_weight", "must be >= 0")
+        for name in ("texcoord_weight", "normal_weight", "object_normal_weight"):
+            if getattr(self, name) < 0:
+                self._fail(name, "must be >= 0")
         self._check_positive("min_faces")
 
 
@@ -99,11 +110,14 @@ class MeshData:
         return int(self.face.shape[0])
 
     def key(self, settings: MeshSettings) -> str:
-        """The cache key: these arrays, the settings and the code that simplifies them."""
+        """The cache key: these arrays, the settings :func:`simplify_mesh` reads and the code
+        that simplifies them (which meshes take ``object_normal_weight`` is the caller's choice,
+        made by passing it as ``normal_weight``)."""
         from libero_data.sim import meshopt
 
         digest = hashlib.sha256()
-        recipe = {"algorithm": ALGORITHM, "meshoptimizer": meshopt.version(), "settings": settings.to_dict()}
+        used = {k: v for k, v in settings.to_dict().items() if k != "object_normal_weight"}
+        recipe = {"algorithm": ALGORITHM, "meshoptimizer": meshopt.version(), "settings": used}
         digest.update(json.dumps(recipe, sort_keys=True).encode())
         for array in (self.vert, self.normal, self.texcoord, self.face, self.facenormal, self.facetexcoord):
             digest.update(str(array.shape).encode())

@@ -32,6 +32,12 @@ from libero_data.sim.meshes import ALGORITHM, CacheReport, MeshCache, MeshData, 
 #: datasets' AV1 encoding adds to the same full-quality frames (0.0076-0.0120); see "Fast
 #: rendering" in benchmarks/RESULTS.md.
 FAST_MEAN_BOUND = 0.01
+#: A free object is drawn from its detailed copy (:func:`detailed_objects`) by a mounted camera
+#: within this many metres of the object's bounding sphere. Pushing the gripper down onto
+#: libero_90/23's bowl, the wrist image's |fast - full| with the coarse copies grows with the
+#: bowl's share of the frame: 0.0071 at 0.144 m, 0.0123 at 0.083 m; nearer than 0.15 m the
+#: detailed copies keep it at or below 0.0060 (a one-off script, 2026-11-27).
+NEAR_OBJECT_M = 0.15
 #: Geom groups robosuite draws (``render_collision_mesh=False``, ``render_visual_mesh=True``):
 #: group 0 holds collision geometry, group 1 visual meshes, group 2 what MuJoCo shows by default.
 DRAWN_GROUPS = (1, 2)
@@ -48,10 +54,13 @@ class OffscreenRenderer:
         *,
         cull: bool = False,
         unmirrored: frozenset[int] = frozenset(),
+        detail: NearDetail | None = None,
     ) -> None:
         import mujoco
 
         self.size = size
+        # Free objects' detailed copies, swapped into this context while the camera is near them.
+        self.detail = detail
         # Cameras drawn without MuJoCo's mirror pass (which draws every geom again, mirrored in
         # the scene's first reflective plane or box, whether or not the reflection shows).
         self.unmirrored = unmirrored
@@ -105,6 +114,10 @@ class OffscreenRenderer:
 
         self._camera.fixedcamid = camera_id
         self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = camera_id not in self.unmirrored
+        if self.detail is not None:
+            for i in self.detail.swap(model, data):
+                mujoco.mjr_uploadMesh(self.detail.model, self._con, i)
+                self._facenum[i] = self.detail.model.mesh_facenum[i]
         mujoco.mjv_updateScene(
             model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
         )
@@ -154,6 +167,54 @@ class OffscreenRenderer:
             if con is not None:
                 con.free()
             ctx.free()
+
+
+class NearDetail:
+    """Which copy of each free object's mesh a context holds: the detailed one while one of the
+    mounted ``cameras`` is within ``near`` metres of the bounding sphere of a geom that uses
+    the mesh, the coarse one otherwise. The choice follows the simulated state alone (whichever
+    camera is drawn), so an image never depends on what was drawn before it. ``model`` is the
+    render copy the context was built from; its meshes are rewritten in place and :meth:`swap`
+    names those the context must upload again (only when a camera crosses the distance)."""
+
+    def __init__(
+        self,
+        model: Any,
+        coarse: dict[int, np.ndarray],
+        fine: dict[int, np.ndarray],
+        capacity: dict[int, int],
+        cameras: frozenset[int],
+        near: float = NEAR_OBJECT_M,
+    ) -> None:
+        import mujoco
+
+        self.model, self.coarse, self.fine, self.capacity = model, coarse, fine, capacity
+        self.cameras, self.near = sorted(cameras), near
+        is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+        self.geoms = {i: np.flatnonzero(is_mesh & (model.geom_dataid == i)) for i in fine}
+        self.detailed: set[int] = set()  # meshes whose detailed copy the context holds now
+
+    def wanted(self, model: Any, data: Any) -> set[int]:
+        """The meshes a mounted camera is near now (live ``model``/``data``)."""
+        out = set()
+        for i, geoms in self.geoms.items():
+            if not geoms.size:
+                continue
+            for camera in self.cameras:
+                gap = np.linalg.norm(data.geom_xpos[geoms] - data.cam_xpos[camera], axis=1)
+                if float((gap - model.geom_rbound[geoms]).min()) < self.near:
+                    out.add(i)
+                    break
+        return out
+
+    def swap(self, model: Any, data: Any) -> list[int]:
+        """Put in the render copy the copies the state needs; the meshes that changed."""
+        wanted = self.wanted(model, data)
+        changed = sorted(wanted ^ self.detailed)
+        for i in changed:
+            apply_faces(self.model, i, (self.fine if i in wanted else self.coarse)[i], self.capacity[i])
+        self.detailed = wanted
+        return changed
 
 
 _LIVE: weakref.WeakSet[OffscreenRenderer] = weakref.WeakSet()
@@ -241,19 +302,47 @@ def fast_renderer(
     faces: dict[int, np.ndarray],
     texture_cap: int,
     backend: str | None,
+    detail: dict[int, np.ndarray] | None = None,
 ) -> OffscreenRenderer:
     """A renderer whose context holds ``model`` with the simplified ``faces``
     (:func:`simplified_meshes`) and textures at most ``texture_cap`` wide; the mounted cameras
-    among ``camera_ids`` are drawn without the mirror pass."""
+    among ``camera_ids`` are drawn without the mirror pass. ``detail``: detailed copies of
+    free objects' meshes (:func:`detailed_objects`), drawn instead while the camera is near
+    them (:class:`NearDetail`; for a renderer of mounted cameras)."""
     from libero_data.sim.distant import mounted_cameras, shrink_textures
 
     render_model = copy.deepcopy(model)
     for i, tri in faces.items():
         apply_faces(render_model, i, tri)
     shrink_textures(render_model, texture_cap)
+    near = None
+    if detail:
+        capacity = {i: int(model.mesh_facenum[i]) for i in detail}
+        cameras = mounted_cameras(model, camera_ids)
+        near = NearDetail(render_model, {i: faces[i] for i in detail}, detail, capacity, cameras)
     return OffscreenRenderer(
-        render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids)
+        render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids), detail=near
     )
+
+
+def detailed_objects(
+    model: Any,
+    camera_ids: list[int],
+    settings: MeshSettings | None = None,
+    cache_dir: str | Path | None = None,
+    *,
+    progress: bool | None = None,
+) -> tuple[dict[int, np.ndarray], CacheReport]:
+    """The drawn meshes of free objects simplified with ``settings.object_normal_weight`` as
+    their normals' weight (cached like the others): what a mounted camera draws near them."""
+    settings = settings or MeshSettings()
+    meshes = (set(drawn_meshes(model)) & object_meshes(model)) - camera_meshes(model, camera_ids)
+    found, report = MeshCache(cache_dir).simplified(
+        {i: MeshData.from_model(model, i) for i in sorted(meshes)},
+        settings.replace(normal_weight=settings.object_normal_weight),
+        progress=progress,
+    )
+    return found, report
 
 
 def simplified_meshes(
@@ -333,7 +422,9 @@ class FastImages:
         fixed = [c for c in ids if c not in mounted]
         out: dict[int, tuple[OffscreenRenderer, FastScene]] = {}
         if mounted:
-            near = (fast_renderer(model, size, ids, faces, cap["mounted"] * size, self.backend), scene)
+            detail, _ = detailed_objects(model, ids, cache_dir=self.cache_dir)
+            renderer = fast_renderer(model, size, ids, faces, cap["mounted"] * size, self.backend, detail)
+            near = (renderer, scene)
             out.update(dict.fromkeys(mounted, near))
         errors = distant_errors(model, ids, size, drawn_geoms(model), MeshSettings().max_error)
         if fixed and mounted and not errors:
@@ -369,6 +460,8 @@ class FastImages:
                 "algorithm": ALGORITHM,
                 "reflections": "fixed cameras",
                 "distant_meshes": f"{SCREEN_ERROR_PX} px (fixed cameras)",
+                "near_objects": f"free objects within {NEAR_OBJECT_M} m of a mounted camera: normal weight"
+                f" {MeshSettings().object_normal_weight}",
                 "textures": ", ".join(f"at most {k}x the image ({c})" for c, k in TEXTURE_PER_IMAGE.items()),
             },
         }
@@ -391,9 +484,12 @@ class FastImages:
         self._fast = self._reference = None
 
 
-def apply_faces(model: Any, i: int, faces: np.ndarray) -> None:
-    """Replace mesh ``i``'s triangles in ``model`` (a render copy) by ``faces`` (k, 3, 3)."""
-    adr, num = int(model.mesh_faceadr[i]), int(model.mesh_facenum[i])
+def apply_faces(model: Any, i: int, faces: np.ndarray, capacity: int | None = None) -> None:
+    """Replace mesh ``i``'s triangles in ``model`` (a render copy) by ``faces`` (k, 3, 3).
+    ``capacity``: the mesh's triangles in the compiled model (its current count by default;
+    a copy simplified before holds fewer)."""
+    adr = int(model.mesh_faceadr[i])
+    num = int(model.mesh_facenum[i]) if capacity is None else capacity
     k = len(faces)
     if k > num:
         raise ValueError(f"mesh {i} has {num} triangles; a simplified copy cannot have {k}")
@@ -415,6 +511,17 @@ def drawn_meshes(model: Any) -> dict[int, int]:
 def drawn_geoms(model: Any) -> np.ndarray:
     """Per geom: whether a camera draws it (a visible group, not fully transparent)."""
     return np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
+
+
+def object_meshes(model: Any) -> set[int]:
+    """Meshes of the geoms of free objects: bodies under a free joint (what a task moves)."""
+    import mujoco
+
+    root = model.body_rootid[model.geom_bodyid]
+    first = model.body_jntadr[root]
+    free = (first >= 0) & (model.jnt_type[np.maximum(first, 0)] == mujoco.mjtJoint.mjJNT_FREE)
+    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    return {int(i) for i in model.geom_dataid[is_mesh & free]}
 
 
 def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:

@@ -112,6 +112,62 @@ def test_the_fixed_camera_draws_distant_still_meshes_coarser_and_the_wrist_does_
         assert env.render_scene()["settings"]["distant_meshes"].endswith("(fixed cameras)")
 
 
+def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() -> None:
+    # A free object's shading needs finer normals a few centimetres from the wrist camera
+    # (libero_90/23's bowl: 0.0123 -> 0.0060), not from afar: the detailed copy is swapped into
+    # the context while the camera is near, and the image is then exactly that of a context
+    # built with the detailed copy; moved away again, exactly that of the coarse one.
+    from libero_data.sim.distant import TEXTURE_PER_IMAGE
+    from libero_data.sim.render import NEAR_OBJECT_M, detailed_objects, fast_renderer, object_meshes
+
+    task = get_task("libero_object/0")
+    size = 96
+    up, push = np.array([0, 0, 0.5, 0, 0, 0, -1.0]), np.array([0.3, -0.2, -0.25, 0, 0, 0.1, -1.0])
+    with LiberoEnv(task, EnvConfig(image_size=size, render_quality="fast")) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        model, data = env.sim.model._model, env.sim.data._data
+        ids = [env._camera_id(c) for c in CAMERAS]
+        wrist = env._camera_id("eye_in_hand")
+        env.render("eye_in_hand")
+        renderer, _ = env._fast._built(model, wrist)
+        near = renderer.detail
+        assert near is not None and near.near == NEAR_OBJECT_M
+        detail, _ = detailed_objects(model, ids, progress=False)
+        assert detail.keys() == near.fine.keys() and set(detail) <= object_meshes(model)
+        coarse = near.coarse
+        assert all(len(detail[i]) >= len(coarse[i]) for i in detail)
+        assert sum(map(len, detail.values())) > 2 * sum(map(len, coarse.values()))
+        seen = []
+        for action, steps in ((up, 10), (push, 35), (up, 10)):
+            for _ in range(steps):
+                env.advance(action)
+            image = env.render("eye_in_hand")
+            wanted = near.wanted(model, data)
+            assert near.detailed == wanted
+            held = {i: (detail[i] if i in wanted else coarse[i]) for i in detail}
+            reference = fast_renderer(
+                model,
+                size,
+                ids,
+                {**_near_faces(env), **held},
+                TEXTURE_PER_IMAGE["mounted"] * size,
+                env._fast.backend,
+            )
+            try:
+                assert np.array_equal(reference.render(model, data, wrist), image)
+            finally:
+                reference.close()
+            seen.append(frozenset(wanted))
+        assert seen[0] == seen[2] == frozenset() and seen[1]  # far, near, far again
+
+
+def _near_faces(env: LiberoEnv) -> dict[int, np.ndarray]:
+    from libero_data.sim.render import simplified_meshes
+
+    ids = [env._camera_id(c) for c in CAMERAS]
+    return simplified_meshes(env.sim.model._model, ids, progress=False)[0]
+
+
 def test_a_bad_render_quality_is_named() -> None:
     from libero_data.errors import InputError
 
