@@ -26,7 +26,14 @@ _PACKAGE = Path(__file__).resolve().parent
 #: (``libero_data.seeding``) are frozen instead, their values pinned by tests.
 EPISODE_CODE = ("experts", "sim")
 #: Modules inside those folders that do not decide an episode.
-NOT_EPISODE_CODE = ("experts/report.py", "sim/render.py", "sim/meshes.py", "sim/meshopt.py", "sim/distant.py")
+NOT_EPISODE_CODE = (
+    "experts/report.py",
+    "sim/render.py",
+    "sim/meshes.py",
+    "sim/meshopt.py",
+    "sim/distant.py",
+    "sim/near.py",
+)
 
 
 @functools.cache

@@ -38,8 +38,9 @@ def build_mesh_cache(
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.sim.distant import distant_errors
     from libero_data.sim.env import CAMERAS
-    from libero_data.sim.meshes import MeshSettings
-    from libero_data.sim.render import detailed_objects, drawn_geoms, simplified_meshes
+    from libero_data.sim.meshes import MeshSettings, drawn_geoms
+    from libero_data.sim.near import detailed_objects
+    from libero_data.sim.render import simplified_meshes
 
     build = CacheBuild()
     start = time.perf_counter()

@@ -36,6 +36,9 @@ from libero_data.config import Config
 ALGORITHM = 1
 #: The cache's folder name under its root (a new algorithm family gets a new folder).
 CACHE_FOLDER = "render-meshes-v1"
+#: Geom groups robosuite draws (``render_collision_mesh=False``, ``render_visual_mesh=True``):
+#: group 0 holds collision geometry, group 1 visual meshes, group 2 what MuJoCo shows by default.
+DRAWN_GROUPS = (1, 2)
 
 
 @dataclass(frozen=True)
@@ -295,3 +298,47 @@ def _progress(items: list[tuple[int, str]], show: bool | None) -> Iterable[tuple
         disable=None if show is None else False,
         leave=False,
     )
+
+
+def apply_faces(model: Any, i: int, faces: np.ndarray, capacity: int | None = None) -> None:
+    """Replace mesh ``i``'s triangles in ``model`` (a render copy) by ``faces`` (k, 3, 3);
+    ``capacity``: its triangles as compiled (default: its count now, fewer once simplified)."""
+    adr = int(model.mesh_faceadr[i])
+    num = int(model.mesh_facenum[i]) if capacity is None else capacity
+    k = len(faces)
+    if k > num:
+        raise ValueError(f"mesh {i} has {num} triangles; a simplified copy cannot have {k}")
+    model.mesh_face[adr : adr + k] = faces[:, :, 0]
+    model.mesh_facenormal[adr : adr + k] = faces[:, :, 1]
+    model.mesh_facetexcoord[adr : adr + k] = faces[:, :, 2]
+    model.mesh_facenum[i] = k
+
+
+def drawn_meshes(model: Any) -> dict[int, int]:
+    """Mesh -> how many of the geoms a camera draws use it (visible groups, not fully transparent)."""
+    import mujoco
+
+    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    ids, counts = np.unique(model.geom_dataid[is_mesh & drawn_geoms(model)], return_counts=True)
+    return {int(i): int(n) for i, n in zip(ids, counts, strict=True)}
+
+
+def drawn_geoms(model: Any) -> np.ndarray:
+    """Per geom: whether a camera draws it (a visible group, not fully transparent)."""
+    return np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
+
+
+def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:
+    """Meshes on the bodies of cameras mounted on a body (not the world), and on their descendants."""
+    import mujoco
+
+    from libero_data.sim.distant import mounted_cameras
+
+    roots = {int(model.cam_bodyid[c]) for c in mounted_cameras(model, camera_ids)}
+    if not roots:
+        return set()
+    inside = np.zeros(model.nbody, dtype=bool)
+    for body in range(1, model.nbody):  # parents come before children in MuJoCo's body order
+        inside[body] = body in roots or bool(inside[model.body_parentid[body]])
+    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    return {int(i) for i in model.geom_dataid[is_mesh & inside[model.geom_bodyid]]}

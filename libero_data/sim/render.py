@@ -21,26 +21,31 @@ import copy
 import weakref
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_data.sim.meshes import ALGORITHM, CacheReport, MeshCache, MeshData, MeshSettings
+from libero_data.sim.meshes import (
+    ALGORITHM,
+    DRAWN_GROUPS,
+    CacheReport,
+    MeshCache,
+    MeshData,
+    MeshSettings,
+    apply_faces,
+    camera_meshes,
+    drawn_geoms,
+    drawn_meshes,
+)
+
+if TYPE_CHECKING:
+    from libero_data.sim.near import NearDetail
 
 #: The largest mean |fast - full| per camera image (0-1 scale) that ``fast`` is held to. Measured
 #: on one scene of each suite at 128 and 256 px: 0.0015-0.0085, always below the error the
 #: datasets' AV1 encoding adds to the same full-quality frames (0.0076-0.0120); see "Fast
 #: rendering" in benchmarks/RESULTS.md.
 FAST_MEAN_BOUND = 0.01
-#: A free object is drawn from its detailed copy (:func:`detailed_objects`) by a mounted camera
-#: within this many metres of the object's bounding sphere. Pushing the gripper down onto
-#: libero_90/23's bowl, the wrist image's |fast - full| with the coarse copies grows with the
-#: bowl's share of the frame: 0.0071 at 0.144 m, 0.0123 at 0.083 m; nearer than 0.15 m the
-#: detailed copies keep it at or below 0.0060 (a one-off script, 2026-11-27).
-NEAR_OBJECT_M = 0.15
-#: Geom groups robosuite draws (``render_collision_mesh=False``, ``render_visual_mesh=True``):
-#: group 0 holds collision geometry, group 1 visual meshes, group 2 what MuJoCo shows by default.
-DRAWN_GROUPS = (1, 2)
 
 
 class OffscreenRenderer:
@@ -58,9 +63,7 @@ class OffscreenRenderer:
     ) -> None:
         import mujoco
 
-        self.size = size
-        # Free objects' detailed copies, swapped into this context while the camera is near them.
-        self.detail = detail
+        self.size, self.detail = size, detail  # detail: free objects' copies swapped in when near
         # Cameras drawn without MuJoCo's mirror pass (which draws every geom again, mirrored in
         # the scene's first reflective plane or box, whether or not the reflection shows).
         self.unmirrored = unmirrored
@@ -115,9 +118,7 @@ class OffscreenRenderer:
         self._camera.fixedcamid = camera_id
         self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = camera_id not in self.unmirrored
         if self.detail is not None:
-            for i in self.detail.swap(model, data):
-                mujoco.mjr_uploadMesh(self.detail.model, self._con, i)
-                self._facenum[i] = self.detail.model.mesh_facenum[i]
+            self.detail.update(model, data, self._con, self._facenum)
         mujoco.mjv_updateScene(
             model, data, self._option, self._perturb, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
         )
@@ -167,54 +168,6 @@ class OffscreenRenderer:
             if con is not None:
                 con.free()
             ctx.free()
-
-
-class NearDetail:
-    """Which copy of each free object's mesh a context holds: the detailed one while one of the
-    mounted ``cameras`` is within ``near`` metres of the bounding sphere of a geom that uses
-    the mesh, the coarse one otherwise. The choice follows the simulated state alone (whichever
-    camera is drawn), so an image never depends on what was drawn before it. ``model`` is the
-    render copy the context was built from; its meshes are rewritten in place and :meth:`swap`
-    names those the context must upload again (only when a camera crosses the distance)."""
-
-    def __init__(
-        self,
-        model: Any,
-        coarse: dict[int, np.ndarray],
-        fine: dict[int, np.ndarray],
-        capacity: dict[int, int],
-        cameras: frozenset[int],
-        near: float = NEAR_OBJECT_M,
-    ) -> None:
-        import mujoco
-
-        self.model, self.coarse, self.fine, self.capacity = model, coarse, fine, capacity
-        self.cameras, self.near = sorted(cameras), near
-        is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-        self.geoms = {i: np.flatnonzero(is_mesh & (model.geom_dataid == i)) for i in fine}
-        self.detailed: set[int] = set()  # meshes whose detailed copy the context holds now
-
-    def wanted(self, model: Any, data: Any) -> set[int]:
-        """The meshes a mounted camera is near now (live ``model``/``data``)."""
-        out = set()
-        for i, geoms in self.geoms.items():
-            if not geoms.size:
-                continue
-            for camera in self.cameras:
-                gap = np.linalg.norm(data.geom_xpos[geoms] - data.cam_xpos[camera], axis=1)
-                if float((gap - model.geom_rbound[geoms]).min()) < self.near:
-                    out.add(i)
-                    break
-        return out
-
-    def swap(self, model: Any, data: Any) -> list[int]:
-        """Put in the render copy the copies the state needs; the meshes that changed."""
-        wanted = self.wanted(model, data)
-        changed = sorted(wanted ^ self.detailed)
-        for i in changed:
-            apply_faces(self.model, i, (self.fine if i in wanted else self.coarse)[i], self.capacity[i])
-        self.detailed = wanted
-        return changed
 
 
 _LIVE: weakref.WeakSet[OffscreenRenderer] = weakref.WeakSet()
@@ -306,43 +259,18 @@ def fast_renderer(
 ) -> OffscreenRenderer:
     """A renderer whose context holds ``model`` with the simplified ``faces``
     (:func:`simplified_meshes`) and textures at most ``texture_cap`` wide; the mounted cameras
-    among ``camera_ids`` are drawn without the mirror pass. ``detail``: detailed copies of
-    free objects' meshes (:func:`detailed_objects`), drawn instead while the camera is near
-    them (:class:`NearDetail`; for a renderer of mounted cameras)."""
+    among ``camera_ids`` are drawn without the mirror pass; ``detail``: see :mod:`.near`."""
     from libero_data.sim.distant import mounted_cameras, shrink_textures
+    from libero_data.sim.near import NearDetail
 
     render_model = copy.deepcopy(model)
     for i, tri in faces.items():
         apply_faces(render_model, i, tri)
     shrink_textures(render_model, texture_cap)
-    near = None
-    if detail:
-        capacity = {i: int(model.mesh_facenum[i]) for i in detail}
-        cameras = mounted_cameras(model, camera_ids)
-        near = NearDetail(render_model, {i: faces[i] for i in detail}, detail, capacity, cameras)
+    near = NearDetail.of(model, render_model, camera_ids, faces, detail) if detail else None
     return OffscreenRenderer(
         render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids), detail=near
     )
-
-
-def detailed_objects(
-    model: Any,
-    camera_ids: list[int],
-    settings: MeshSettings | None = None,
-    cache_dir: str | Path | None = None,
-    *,
-    progress: bool | None = None,
-) -> tuple[dict[int, np.ndarray], CacheReport]:
-    """The drawn meshes of free objects simplified with ``settings.object_normal_weight`` as
-    their normals' weight (cached like the others): what a mounted camera draws near them."""
-    settings = settings or MeshSettings()
-    meshes = (set(drawn_meshes(model)) & object_meshes(model)) - camera_meshes(model, camera_ids)
-    found, report = MeshCache(cache_dir).simplified(
-        {i: MeshData.from_model(model, i) for i in sorted(meshes)},
-        settings.replace(normal_weight=settings.object_normal_weight),
-        progress=progress,
-    )
-    return found, report
 
 
 def simplified_meshes(
@@ -415,6 +343,7 @@ class FastImages:
         the fixed cameras have distant meshes to draw coarser or there is no mounted camera, the
         fixed cameras' own (textures up to 4x); otherwise the mounted cameras' serves all."""
         from libero_data.sim.distant import TEXTURE_PER_IMAGE, distant_errors, mounted_cameras
+        from libero_data.sim.near import detailed_objects
 
         ids, size, cap = self.camera_ids, self.size, TEXTURE_PER_IMAGE
         faces, scene = simplified_meshes(model, ids, cache_dir=self.cache_dir)
@@ -423,8 +352,10 @@ class FastImages:
         out: dict[int, tuple[OffscreenRenderer, FastScene]] = {}
         if mounted:
             detail, _ = detailed_objects(model, ids, cache_dir=self.cache_dir)
-            renderer = fast_renderer(model, size, ids, faces, cap["mounted"] * size, self.backend, detail)
-            near = (renderer, scene)
+            near = (
+                fast_renderer(model, size, ids, faces, cap["mounted"] * size, self.backend, detail),
+                scene,
+            )
             out.update(dict.fromkeys(mounted, near))
         errors = distant_errors(model, ids, size, drawn_geoms(model), MeshSettings().max_error)
         if fixed and mounted and not errors:
@@ -452,6 +383,7 @@ class FastImages:
 
     def info(self) -> dict[str, Any]:
         from libero_data.sim.distant import SCREEN_ERROR_PX, TEXTURE_PER_IMAGE
+        from libero_data.sim.near import NEAR_OBJECT_M
 
         out: dict[str, Any] = {
             "quality": "fast",
@@ -482,59 +414,3 @@ class FastImages:
             if renderer is not None:
                 renderer.close()
         self._fast = self._reference = None
-
-
-def apply_faces(model: Any, i: int, faces: np.ndarray, capacity: int | None = None) -> None:
-    """Replace mesh ``i``'s triangles in ``model`` (a render copy) by ``faces`` (k, 3, 3).
-    ``capacity``: the mesh's triangles in the compiled model (its current count by default;
-    a copy simplified before holds fewer)."""
-    adr = int(model.mesh_faceadr[i])
-    num = int(model.mesh_facenum[i]) if capacity is None else capacity
-    k = len(faces)
-    if k > num:
-        raise ValueError(f"mesh {i} has {num} triangles; a simplified copy cannot have {k}")
-    model.mesh_face[adr : adr + k] = faces[:, :, 0]
-    model.mesh_facenormal[adr : adr + k] = faces[:, :, 1]
-    model.mesh_facetexcoord[adr : adr + k] = faces[:, :, 2]
-    model.mesh_facenum[i] = k
-
-
-def drawn_meshes(model: Any) -> dict[int, int]:
-    """Mesh -> how many of the geoms a camera draws use it (visible groups, not fully transparent)."""
-    import mujoco
-
-    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-    ids, counts = np.unique(model.geom_dataid[is_mesh & drawn_geoms(model)], return_counts=True)
-    return {int(i): int(n) for i, n in zip(ids, counts, strict=True)}
-
-
-def drawn_geoms(model: Any) -> np.ndarray:
-    """Per geom: whether a camera draws it (a visible group, not fully transparent)."""
-    return np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
-
-
-def object_meshes(model: Any) -> set[int]:
-    """Meshes of the geoms of free objects: bodies under a free joint (what a task moves)."""
-    import mujoco
-
-    root = model.body_rootid[model.geom_bodyid]
-    first = model.body_jntadr[root]
-    free = (first >= 0) & (model.jnt_type[np.maximum(first, 0)] == mujoco.mjtJoint.mjJNT_FREE)
-    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-    return {int(i) for i in model.geom_dataid[is_mesh & free]}
-
-
-def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:
-    """Meshes on the bodies of cameras mounted on a body (not the world), and on their descendants."""
-    import mujoco
-
-    from libero_data.sim.distant import mounted_cameras
-
-    roots = {int(model.cam_bodyid[c]) for c in mounted_cameras(model, camera_ids)}
-    if not roots:
-        return set()
-    inside = np.zeros(model.nbody, dtype=bool)
-    for body in range(1, model.nbody):  # parents come before children in MuJoCo's body order
-        inside[body] = body in roots or bool(inside[model.body_parentid[body]])
-    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-    return {int(i) for i in model.geom_dataid[is_mesh & inside[model.geom_bodyid]]}

@@ -118,7 +118,8 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
     # the context while the camera is near, and the image is then exactly that of a context
     # built with the detailed copy; moved away again, exactly that of the coarse one.
     from libero_data.sim.distant import TEXTURE_PER_IMAGE
-    from libero_data.sim.render import NEAR_OBJECT_M, detailed_objects, fast_renderer, object_meshes
+    from libero_data.sim.near import NEAR_OBJECT_M, detailed_objects, object_meshes
+    from libero_data.sim.render import fast_renderer
 
     task = get_task("libero_object/0")
     size = 96
