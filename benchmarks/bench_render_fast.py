@@ -29,6 +29,7 @@ folder, so the run measures building it too.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import tempfile
@@ -337,6 +338,28 @@ def tables(
     return "\n".join(lines) + "\n"
 
 
+def _load_rows(path: Path | None) -> dict[tuple[str, int], dict[str, Any]]:
+    """Rows measured before (``--rows``), by scene and size; a line cut off by an interruption is ignored."""
+    rows: dict[tuple[str, int], dict[str, Any]] = {}
+    if path is None or not path.is_file():
+        return rows
+    for line in path.read_text().splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        rows[(row["task"], int(row["size"]))] = row
+    return rows
+
+
+def _append_row(path: Path, row: dict[str, Any]) -> None:
+    """Add ``row`` as one line (NumPy scalars as numbers), on a line of its own even after a line
+    an interruption cut off."""
+    cut = path.is_file() and path.stat().st_size > 0 and not path.read_bytes().endswith(b"\n")
+    with path.open("a") as f:
+        f.write(("\n" if cut else "") + json.dumps(row, default=lambda v: v.item()) + "\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tasks", default=TASKS, help="comma-separated task references")
@@ -350,6 +373,13 @@ def main() -> None:
     parser.add_argument("--generate-episodes", type=int, default=0, help="0: skip the generation runs")
     parser.add_argument("--generate-repeats", type=int, default=1)
     parser.add_argument("--results", type=Path, help="RESULTS.md to update")
+    parser.add_argument(
+        "--rows",
+        type=Path,
+        help="a JSON-lines file of measured rows: each scene's row is added as soon as it is measured and "
+        "rows already in it are not measured again, so a run cut short goes on where it stopped (delete it "
+        "to measure anew, e.g. after changing the code)",
+    )
     args = parser.parse_args()
     from libero_data.pipeline.mesh_cache import build_mesh_cache
     from libero_data.tasks import get_task
@@ -358,7 +388,14 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as cache:
         build = build_mesh_cache([get_task(r) for r in refs], cache)
         line = f"{build.meshes_built} meshes simplified, {build.meshes_found} shared with an earlier scene"
-        rows = [measure(r, s, args.frames, args.reps, args.states, cache) for s in args.sizes for r in refs]
+        done = _load_rows(args.rows)
+        rows = []
+        for size in args.sizes:
+            for ref in refs:
+                row = done.get((ref, size)) or measure(ref, size, args.frames, args.reps, args.states, cache)
+                if args.rows is not None and (ref, size) not in done:
+                    _append_row(args.rows, row)
+                rows.append(row)
         generation = None
         if args.generate_episodes:
             os.environ["LIBERO_DATA_CACHE"] = cache  # the generate processes read the same cache
