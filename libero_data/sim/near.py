@@ -10,6 +10,9 @@ tasks move, and what the gripper approaches) therefore get a second, detailed co
 with :attr:`MeshSettings.object_normal_weight`; the mounted cameras' context holds it only while
 one of them is within :data:`NEAR_OBJECT_M` of the object, so the triangles it costs are drawn
 only there (every free object detailed all the time: libero_object/8 drew 79% more triangles).
+What the swap costs (libero_90/23, beside another job, a one-off script): 0.08 ms per image to
+decide, 1.8 ms when all four of its objects' meshes cross at once (taking out and uploading
+24 k triangles), which happens as the camera comes and goes, not every frame.
 """
 
 from __future__ import annotations
@@ -32,8 +35,9 @@ from libero_data.sim.meshes import (
 #: A free object is drawn from its detailed copy (:func:`detailed_objects`) by a mounted camera
 #: within this many metres of the object's bounding sphere. Pushing the gripper down onto
 #: libero_90/23's bowl, the wrist image's |fast - full| with the coarse copies grows with the
-#: bowl's share of the frame: 0.0071 at 0.144 m, 0.0123 at 0.083 m; nearer than 0.15 m the
-#: detailed copies keep it at or below 0.0060 (a one-off script, 2026-11-27).
+#: bowl's share of the frame: 0.0071 at 0.144 m, 0.0123 at 0.083 m (0.0060 with the detailed
+#: copy). Swapping at 0.15 m, the worst wrist frame along that push is 0.0064, and 0.0072 on
+#: libero_90/28 (a one-off script, 2026-11-27; tests/sim/test_fast_render_scenes.py).
 NEAR_OBJECT_M = 0.15
 
 
@@ -69,74 +73,50 @@ def detailed_objects(
 
 
 class NearDetail:
-    """Which copy of each free object's mesh a context holds: the detailed one while one of the
-    mounted ``cameras`` is within ``near`` metres of the bounding sphere of a geom that uses
-    the mesh, the coarse one otherwise. The choice follows the simulated state alone (whichever
-    camera is drawn), so an image never depends on what was drawn before it. ``model`` is the
-    render copy the context was built from; its meshes are rewritten in place and :meth:`swap`
-    names those the context must upload again (only when a camera crosses the distance)."""
+    """Which copy of each free object's mesh a context holds: the detailed one (``detail``) while
+    one of the mounted cameras among ``camera_ids`` is within ``near`` metres of the bounding
+    sphere of a geom that uses the mesh, the coarse one (``faces``) otherwise. The choice follows
+    the simulated state alone (whichever camera is drawn), so an image never depends on what was
+    drawn before it. ``render_model`` is ``model``'s copy the context was built from (holding
+    ``faces``); its meshes are rewritten in place and uploaded again only when a camera crosses
+    the distance."""
 
     def __init__(
         self,
-        model: Any,
-        coarse: dict[int, np.ndarray],
-        fine: dict[int, np.ndarray],
-        capacity: dict[int, int],
-        cameras: frozenset[int],
-        near: float = NEAR_OBJECT_M,
-    ) -> None:
-        import mujoco
-
-        self.model, self.coarse, self.fine, self.capacity = model, coarse, fine, capacity
-        self.cameras, self.near = sorted(cameras), near
-        is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-        self.geoms = {i: np.flatnonzero(is_mesh & (model.geom_dataid == i)) for i in fine}
-        self.detailed: set[int] = set()  # meshes whose detailed copy the context holds now
-
-    def wanted(self, model: Any, data: Any) -> set[int]:
-        """The meshes a mounted camera is near now (live ``model``/``data``)."""
-        out = set()
-        for i, geoms in self.geoms.items():
-            if not geoms.size:
-                continue
-            for camera in self.cameras:
-                gap = np.linalg.norm(data.geom_xpos[geoms] - data.cam_xpos[camera], axis=1)
-                if float((gap - model.geom_rbound[geoms]).min()) < self.near:
-                    out.add(i)
-                    break
-        return out
-
-    @classmethod
-    def of(
-        cls,
         model: Any,
         render_model: Any,
         camera_ids: list[int],
         faces: dict[int, np.ndarray],
         detail: dict[int, np.ndarray],
-    ) -> NearDetail:
-        """For a context built from ``render_model`` (``model``'s copy holding ``faces``):
-        ``detail``'s copies near the mounted cameras among ``camera_ids``."""
-        from libero_data.sim.distant import mounted_cameras
-
-        capacity = {i: int(model.mesh_facenum[i]) for i in detail}
-        cameras = mounted_cameras(model, camera_ids)
-        return cls(render_model, {i: faces[i] for i in detail}, detail, capacity, cameras)
-
-    def update(self, model: Any, data: Any, context: Any, facenum: np.ndarray) -> None:
-        """Swap the copies the state needs into ``context`` (an ``MjrContext`` built from
-        :attr:`model`, current) and ``facenum`` (its triangles per mesh)."""
+        near: float = NEAR_OBJECT_M,
+    ) -> None:
         import mujoco
 
-        for i in self.swap(model, data):
+        from libero_data.sim.distant import mounted_cameras
+
+        self.model, self.fine, self.near = render_model, detail, near
+        self.coarse = {i: faces[i] for i in detail}
+        self.capacity = {i: int(model.mesh_facenum[i]) for i in detail}  # as compiled
+        self.cameras = sorted(mounted_cameras(model, camera_ids))
+        uses = (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH) & np.isin(model.geom_dataid, sorted(detail))
+        self.geoms = np.flatnonzero(uses)  # every geom drawing one of the meshes, and its mesh
+        self.mesh_of = model.geom_dataid[self.geoms]
+        self.detailed: set[int] = set()  # meshes whose detailed copy the context holds now
+
+    def wanted(self, model: Any, data: Any) -> set[int]:
+        """The meshes a mounted camera is near now (live ``model``/``data``)."""
+        offsets = data.geom_xpos[self.geoms][None] - data.cam_xpos[self.cameras][:, None]
+        gaps = np.linalg.norm(offsets, axis=-1) - model.geom_rbound[self.geoms]  # (cameras, geoms)
+        return {int(i) for i in self.mesh_of[(gaps < self.near).any(axis=0)]}
+
+    def update(self, model: Any, data: Any, context: Any, facenum: np.ndarray) -> None:
+        """Put the copies the state needs in the render copy, upload those that changed into
+        ``context`` (an ``MjrContext`` built from it, current) and count them in ``facenum``."""
+        import mujoco
+
+        wanted = self.wanted(model, data)
+        for i in sorted(wanted ^ self.detailed):
+            apply_faces(self.model, i, (self.fine if i in wanted else self.coarse)[i], self.capacity[i])
             mujoco.mjr_uploadMesh(self.model, context, i)
             facenum[i] = self.model.mesh_facenum[i]
-
-    def swap(self, model: Any, data: Any) -> list[int]:
-        """Put in the render copy the copies the state needs; the meshes that changed."""
-        wanted = self.wanted(model, data)
-        changed = sorted(wanted ^ self.detailed)
-        for i in changed:
-            apply_faces(self.model, i, (self.fine if i in wanted else self.coarse)[i], self.capacity[i])
         self.detailed = wanted
-        return changed

@@ -267,7 +267,7 @@ def fast_renderer(
     for i, tri in faces.items():
         apply_faces(render_model, i, tri)
     shrink_textures(render_model, texture_cap)
-    near = NearDetail.of(model, render_model, camera_ids, faces, detail) if detail else None
+    near = NearDetail(model, render_model, camera_ids, faces, detail) if detail else None
     return OffscreenRenderer(
         render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids), detail=near
     )

@@ -119,7 +119,7 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
     # built with the detailed copy; moved away again, exactly that of the coarse one.
     from libero_data.sim.distant import TEXTURE_PER_IMAGE
     from libero_data.sim.near import NEAR_OBJECT_M, detailed_objects, object_meshes
-    from libero_data.sim.render import fast_renderer
+    from libero_data.sim.render import fast_renderer, simplified_meshes
 
     task = get_task("libero_object/0")
     size = 96
@@ -133,11 +133,11 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
         renderer, _ = env._fast._built(model, wrist)
         near = renderer.detail
         assert near is not None and near.near == NEAR_OBJECT_M
+        faces, _ = simplified_meshes(model, ids, progress=False)
         detail, _ = detailed_objects(model, ids, progress=False)
         assert detail.keys() == near.fine.keys() and set(detail) <= object_meshes(model)
-        coarse = near.coarse
-        assert all(len(detail[i]) >= len(coarse[i]) for i in detail)
-        assert sum(map(len, detail.values())) > 2 * sum(map(len, coarse.values()))
+        assert all(len(detail[i]) >= len(faces[i]) for i in detail)
+        assert sum(map(len, detail.values())) > 2 * sum(len(faces[i]) for i in detail)
         seen = []
         for action, steps in ((up, 10), (push, 35), (up, 10)):
             for _ in range(steps):
@@ -145,14 +145,9 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
             image = env.render("eye_in_hand")
             wanted = near.wanted(model, data)
             assert near.detailed == wanted
-            held = {i: (detail[i] if i in wanted else coarse[i]) for i in detail}
+            held = {**faces, **{i: detail[i] for i in wanted}}
             reference = fast_renderer(
-                model,
-                size,
-                ids,
-                {**_near_faces(env), **held},
-                TEXTURE_PER_IMAGE["mounted"] * size,
-                env._fast.backend,
+                model, size, ids, held, TEXTURE_PER_IMAGE["mounted"] * size, env._fast.backend
             )
             try:
                 assert np.array_equal(reference.render(model, data, wrist), image)
@@ -160,13 +155,6 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
                 reference.close()
             seen.append(frozenset(wanted))
         assert seen[0] == seen[2] == frozenset() and seen[1]  # far, near, far again
-
-
-def _near_faces(env: LiberoEnv) -> dict[int, np.ndarray]:
-    from libero_data.sim.render import simplified_meshes
-
-    ids = [env._camera_id(c) for c in CAMERAS]
-    return simplified_meshes(env.sim.model._model, ids, progress=False)[0]
 
 
 def test_a_bad_render_quality_is_named() -> None:
