@@ -180,11 +180,15 @@ def _close_all() -> None:
 
 
 def _cull(scene: Any, model: Any, data: Any, camera_id: int) -> int:
-    """Mark the scene's model geoms whose bounding sphere lies outside the camera's view as not drawn.
+    """Mark the scene's model geoms that lie wholly outside the camera's view as not drawn.
 
-    The test is conservative (a sphere against each of the four side planes and the plane
-    behind the camera), so a geom that could touch a pixel is always kept: the image is the
-    same (tested). Returns how many geoms were left out.
+    A geom is outside when its bounding sphere, or all eight corners of its bounding box (MuJoCo's
+    ``geom_aabb``, in the geom's frame), lie beyond one of the view's four side planes or behind
+    the camera. Both bounds hold all of the geom, so a geom that could touch a pixel is always
+    kept: the image is the same (tested). The box is the tighter of the two for long or flat
+    geoms (a bookshelf, a wall, the robot's pedestal), whose spheres reach far into the view:
+    libero_90/75's wrist camera drew 46 k triangles instead of 64 k. Returns how many geoms
+    were left out.
     """
     import mujoco
 
@@ -196,17 +200,30 @@ def _cull(scene: Any, model: Any, data: Any, camera_id: int) -> int:
     rows = [k for k, g in enumerate(geoms) if g.objtype == mujoco.mjtObj.mjOBJ_GEOM]
     if not rows:
         return 0
-    radius = model.geom_rbound[[geoms[k].objid for k in rows]]
-    local = (np.array([geoms[k].pos for k in rows], dtype=np.float64) - position) @ rotation
-    depth = -local[:, 2]  # cameras look along their -z axis
-    outside = (depth + radius < 0) | (
-        np.abs(local[:, :2]) * cos - depth[:, None] * sin > radius[:, None]
-    ).any(axis=1)
+    objids = [geoms[k].objid for k in rows]
+    radius = model.geom_rbound[objids]
+    centres = np.array([geoms[k].pos for k in rows], dtype=np.float64)
+    turns = np.array([geoms[k].mat for k in rows], dtype=np.float64).reshape(-1, 3, 3)
+    boxes = model.geom_aabb[objids]  # centre, then half-sizes, in the geom's frame
+    corners = boxes[:, None, :3] + _SIGNS[None] * boxes[:, None, 3:]
+    points = np.concatenate([centres[:, None], centres[:, None] + corners @ turns.transpose(0, 2, 1)], axis=1)
+    local = (points - position) @ rotation  # (geoms, centre + 8 corners, 3) in the camera's frame
+    reach = np.concatenate([radius[:, None], np.zeros((len(rows), 8))], axis=1)
+    depth = -local[..., 2]  # cameras look along their -z axis
+    beyond = [depth + reach < 0] + [
+        sign * local[..., axis] * cos - depth * sin > reach for axis in (0, 1) for sign in (1, -1)
+    ]
+    outside = np.zeros(len(rows), dtype=bool)
+    for plane in beyond:  # the sphere beyond it, or all eight corners
+        outside |= plane[:, 0] | plane[:, 1:].all(axis=1)
     outside &= radius > 0  # planes and the like have no bounding sphere
     none = int(mujoco.mjtGeom.mjGEOM_NONE)
     for k in np.flatnonzero(outside):
         geoms[rows[k]].type = none
     return int(outside.sum())
+
+
+_SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
 
 
 def _gl_context(backend: str | None, size: int) -> Any:

@@ -62,6 +62,29 @@ def test_leaving_out_geoms_outside_the_view_changes_no_pixel() -> None:
             assert np.array_equal(env.render(camera), culled[camera]), camera
 
 
+def test_geoms_whose_bounding_box_is_outside_the_view_are_left_out_and_no_pixel_changes() -> None:
+    # libero_90/75 (a study room): the room's bookshelf, plant and painting have bounding spheres
+    # of 1-1.1 m that reach into the wrist camera's view from beside or behind the robot; their
+    # boxes do not. With spheres alone the wrist drew 63.9 k triangles at the first state.
+    task = get_task("libero_90/75")
+    with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        model, data = env.sim.model._model, env.sim.data._data
+        wrist = env._camera_id("eye_in_hand")
+        env.render("eye_in_hand")
+        renderer = env._fast._built(model, wrist)[0]
+        assert renderer.render_timed(model, data, wrist)["triangles"] < 55_000
+        for _ in range(3):
+            culled = {c: env.render(c) for c in CAMERAS}
+            for camera in CAMERAS:
+                built = env._fast._built(model, env._camera_id(camera))[0]
+                built.cull = False
+                assert np.array_equal(env.render(camera), culled[camera]), camera
+                built.cull = True
+            for _ in range(12):
+                env.advance(PUSH)
+
+
 def test_the_wrist_camera_is_drawn_without_the_mirror_pass_and_nearly_the_same() -> None:
     import mujoco
 
