@@ -25,6 +25,12 @@
 # go side by side, one torch thread each. Reports, comparisons, plots and each run's
 # config.json / results.json / timings / checkpoint go to benchmarks/results/robustness_data/.
 # Cost on 2 cores: per task ~25 min of data, ~50 min for the two runs, ~50 min for the sweeps.
+#
+# More draws per cell: DRAWS="1 2" benchmarks/robustness_data.sh WORK_DIR object-0 sweeps both runs
+# of each task named again at level 3 of the trained kinds with each variant seed listed (every
+# seed draws another camera, light, texture, noise and arm offset of that level), from the same
+# held-out starts, into sweeps/<run>-draw<seed>; the report pools them with the main sweep's
+# level-3 cells. ~12 min per run and seed on 2 cores. The runs must be trained (or committed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-../quick-work}"
@@ -40,13 +46,19 @@ common=(--image-size 64 --render-quality fast --workers 2 --seed 0)
 declare -A suites=([object-0]=libero_object:0 [spatial-8]=libero_spatial:8)
 mkdir -p "$work/logs"
 
-train() {  # name data task [mix]
-  local name=$1 data=$2 index=$3 mix=${4:-}
+restore() {  # name: the committed run folder into $work/runs, if only it has the run
+  local name=$1
   if [[ ! -d $work/runs/$name && -f $results/runs/$name/checkpoints/task_000.safetensors ]]; then
     echo "$(date +%H:%M) $name: trained before, its committed run folder restored"
     mkdir -p "$work/runs" && cp -r "$results/runs/$name" "$work/runs/$name"
-    return
+    return 0
   fi
+  return 1
+}
+
+train() {  # name data task [mix]
+  local name=$1 data=$2 index=$3 mix=${4:-}
+  restore "$name" && return
   local extra=()
   [[ -n "$mix" ]] && extra=(--mix "$mix" --mix-weight 0.5)
   echo "$(date +%H:%M) train $name (log: $work/logs/$name.log)"
@@ -55,13 +67,22 @@ train() {  # name data task [mix]
     >"$work/logs/$name.log" 2>&1
 }
 
-sweep() {  # name suite/task
-  local name=$1 suite_task=$2
-  echo "$(date +%H:%M) sweep $name ($suite_task; log: $work/logs/sweep-$name.log)"
-  $lb robustness "$work/runs/$name" --tasks "$suite_task" --levels 1,3,5 --rollouts 10 \
-    --render-quality fast --workers 2 --out "$work/sweeps/$name" >"$work/logs/sweep-$name.log" 2>&1
-  mkdir -p "$results/sweeps/$name" "$results/runs/$name"
-  cp "$work/sweeps/$name"/robustness.{json,md,png} "$results/sweeps/$name/"
+data() {  # name suite index: makes what is missing (generation resumes per episode)
+  local name=$1 suite=$2 index=$3
+  echo "$(date +%H:%M) data for $name"
+  $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 "${common[@]}" --out "$work/$name-64"
+  $ld generate --variants-of "$suite" --tasks "$index" --kinds "$kinds" --level 1,2,3 \
+    --episodes-per-task 20 "${common[@]}" --out "$work/$name-variants"
+}
+
+sweep() {  # run suite/task folder [sweep options...]: into $work/sweeps/<folder>, then committed
+  local name=$1 suite_task=$2 folder=$3
+  shift 3
+  echo "$(date +%H:%M) sweep $folder ($suite_task; log: $work/logs/sweep-$folder.log)"
+  $lb robustness "$work/runs/$name" --tasks "$suite_task" --rollouts 10 --render-quality fast \
+    --workers 2 "$@" --out "$work/sweeps/$folder" >"$work/logs/sweep-$folder.log" 2>&1
+  mkdir -p "$results/sweeps/$folder" "$results/runs/$name"
+  cp "$work/sweeps/$folder"/robustness.{json,md,png} "$results/sweeps/$folder/"
   cp -r "$work/runs/$name"/{config.json,results.json,timings.jsonl,checkpoints} "$results/runs/$name/"
 }
 
@@ -72,10 +93,7 @@ for name in "${chosen[@]}"; do
     echo "$name: both sweeps already in $results, skipped"
     continue
   fi
-  echo "$(date +%H:%M) data for $name"
-  $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 "${common[@]}" --out "$work/$name-64"
-  $ld generate --variants-of "$suite" --tasks "$index" --kinds "$kinds" --level 1,2,3 \
-    --episodes-per-task 20 "${common[@]}" --out "$work/$name-variants"
+  data "$name" "$suite" "$index"
   train "single-$name" "$work/$name-64" "$index" &
   single=$!
   train "mixed-$name" "$work/$name-64" "$index" "$work/$name-variants" &
@@ -84,8 +102,21 @@ for name in "${chosen[@]}"; do
   wait "$single" || failed=1
   wait "$mixed" || failed=1
   ((failed == 0)) || { echo "a run of $name failed; its log in $work/logs says why" >&2; exit 1; }
-  sweep "single-$name" "$suite/$index"
-  sweep "mixed-$name" "$suite/$index"
+  sweep "single-$name" "$suite/$index" "single-$name" --levels 1,3,5
+  sweep "mixed-$name" "$suite/$index" "mixed-$name" --levels 1,3,5
+done
+for seed in ${DRAWS:-}; do
+  for name in "${chosen[@]}"; do
+    IFS=: read -r suite index <<<"${suites[$name]}"
+    [[ -f $results/sweeps/single-$name-draw$seed/robustness.json && -f $results/sweeps/mixed-$name-draw$seed/robustness.json ]] \
+      && { echo "$name, draw $seed: both sweeps already in $results, skipped"; continue; }
+    data "$name" "$suite" "$index"  # the held-out starts avoid the training data's
+    for arm in single mixed; do
+      restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
+        || { echo "$arm-$name is neither in $work nor committed: run without DRAWS first" >&2; exit 2; }
+      sweep "$arm-$name" "$suite/$index" "$arm-$name-draw$seed" --levels 3 --kinds "$kinds" --seed "$seed"
+    done
+  done
 done
 .venv/bin/python -m benchmarks.robustness_data_report "$results"
 echo "report in $results"

@@ -42,3 +42,18 @@ def test_the_report_pools_what_was_swept(tmp_path: Path) -> None:
     task = tmp_path / "object-0"
     assert (task / "compare.json").is_file() and (task / "compare.png").is_file()
     assert not (tmp_path / "pooled").exists()  # one task: its own comparison is the pooled one
+
+
+def test_more_draws_of_the_level3_cells_are_reported_alone_and_pooled(tmp_path: Path) -> None:
+    _sweep(tmp_path / "sweeps" / "single-object-0", wins=8, perturbed_wins=2)
+    _sweep(tmp_path / "sweeps" / "mixed-object-0", wins=8, perturbed_wins=7)
+    _sweep(tmp_path / "sweeps" / "single-object-0-draw1", wins=8, perturbed_wins=2)
+    _sweep(tmp_path / "sweeps" / "mixed-object-0-draw1", wins=8, perturbed_wins=4)
+    _sweep(tmp_path / "sweeps" / "single-object-0-draw2", wins=8, perturbed_wins=2)  # its B not swept yet
+    text = summary(tmp_path)
+    assert "| trained kinds, level 3 | +50% |" in text  # the main sweep's figure is unchanged
+    assert "| object-0, draw 0 | +50% |" in text
+    assert "| object-0, draw 1 | +20% |" in text
+    assert "| object-0, draws 0-1 pooled | +35% |" in text
+    assert "draw 2" not in text
+    assert (tmp_path / "object-0" / "draws" / "compare.json").is_file()
