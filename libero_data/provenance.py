@@ -33,6 +33,7 @@ NOT_EPISODE_CODE = (
     "sim/meshopt.py",
     "sim/distant.py",
     "sim/near.py",
+    "sim/hidden.py",
 )
 
 

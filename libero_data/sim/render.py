@@ -39,6 +39,7 @@ from libero_data.sim.meshes import (
 )
 
 if TYPE_CHECKING:
+    from libero_data.sim.hidden import HiddenGeoms
     from libero_data.sim.near import NearDetail
 
 #: The largest mean |fast - full| per camera image (0-1 scale) that ``fast`` is held to. Measured
@@ -60,10 +61,12 @@ class OffscreenRenderer:
         cull: bool = False,
         unmirrored: frozenset[int] = frozenset(),
         detail: NearDetail | None = None,
+        hidden: HiddenGeoms | None = None,
     ) -> None:
         import mujoco
 
         self.size, self.detail = size, detail  # detail: free objects' copies swapped in when near
+        self.hidden = hidden  # large still meshes left out of the unmirrored cameras when hidden
         # Cameras drawn without MuJoCo's mirror pass (which draws every geom again, mirrored in
         # the scene's first reflective plane or box, whether or not the reflection shows).
         self.unmirrored = unmirrored
@@ -106,10 +109,19 @@ class OffscreenRenderer:
 
         self._ctx.make_current()
         self._update(model, data, camera_id)
-        mujoco.mjr_render(self._viewport, self._scene, self._con)
+        self._draw(model, camera_id)
         mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
         # Read bottom-up, from cameras mounted rolled by 180 degrees (see LiberoEnv.render).
         return np.ascontiguousarray(self._pixels[::-1, ::-1])
+
+    def _draw(self, model: Any, camera_id: int) -> list[int]:
+        """``mjr_render`` the scene; returns the scene rows :class:`.hidden.HiddenGeoms` left out."""
+        import mujoco
+
+        if self.hidden is not None and camera_id in self.unmirrored:
+            return self.hidden.draw(model, self._scene, self._con, self._viewport, camera_id)
+        mujoco.mjr_render(self._viewport, self._scene, self._con)
+        return []
 
     def _update(self, model: Any, data: Any, camera_id: int) -> None:
         """The scene as camera ``camera_id`` sees ``data`` (geoms out of its view left out)."""
@@ -140,14 +152,14 @@ class OffscreenRenderer:
         start = time.perf_counter()
         self._update(model, data, camera_id)
         updated = time.perf_counter()
-        mujoco.mjr_render(self._viewport, self._scene, self._con)
+        left_out = set(self._draw(model, camera_id))
         GL.glFinish()
         drawn = time.perf_counter()
         mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._con)
         read = time.perf_counter()
         # A scene's mesh geom names its mesh as 2 * id (2 * id + 1: its convex hull, not drawn here).
         mesh = int(mujoco.mjtGeom.mjGEOM_MESH)
-        geoms = (self._scene.geoms[k] for k in range(self._scene.ngeom))
+        geoms = (self._scene.geoms[k] for k in range(self._scene.ngeom) if k not in left_out)
         triangles = sum(int(self._facenum[g.dataid // 2]) for g in geoms if g.type == mesh)
         return {
             "update": updated - start,
@@ -278,6 +290,7 @@ def fast_renderer(
     (:func:`simplified_meshes`) and textures at most ``texture_cap`` wide; the mounted cameras
     among ``camera_ids`` are drawn without the mirror pass; ``detail``: see :mod:`.near`."""
     from libero_data.sim.distant import mounted_cameras, shrink_textures
+    from libero_data.sim.hidden import HiddenGeoms, large_still_meshes
     from libero_data.sim.near import NearDetail
 
     render_model = copy.deepcopy(model)
@@ -285,8 +298,10 @@ def fast_renderer(
         apply_faces(render_model, i, tri)
     shrink_textures(render_model, texture_cap)
     near = NearDetail(model, render_model, camera_ids, faces, detail) if detail else None
+    mounted = mounted_cameras(model, camera_ids)
+    hidden = HiddenGeoms(large_still_meshes(render_model, render_model.mesh_facenum)) if mounted else None
     return OffscreenRenderer(
-        render_model, size, backend, cull=True, unmirrored=mounted_cameras(model, camera_ids), detail=near
+        render_model, size, backend, cull=True, unmirrored=mounted, detail=near, hidden=hidden
     )
 
 

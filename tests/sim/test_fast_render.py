@@ -85,6 +85,33 @@ def test_geoms_whose_bounding_box_is_outside_the_view_are_left_out_and_no_pixel_
                 env.advance(PUSH)
 
 
+def test_large_still_meshes_proved_hidden_from_the_wrist_are_left_out_and_no_pixel_changes() -> None:
+    # libero_90/75: the pedestal is hidden from the wrist camera, the desk caddy on the table
+    # shows (the frame is drawn again with it).
+    task = get_task("libero_90/75")
+    with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
+        env.reset(task.init_states()[0], seed=0, render=False)
+        model, data = env.sim.model._model, env.sim.data._data
+        wrist = env._camera_id("eye_in_hand")
+        env.render("eye_in_hand")
+        renderer = env._fast._built(model, wrist)[0]
+        hidden = renderer.hidden
+        assert hidden is not None and len(hidden.geoms) >= 2
+        fewer, shown = 0, 0
+        for _ in range(4):
+            image = env.render("eye_in_hand")
+            shown += bool(hidden._visible)
+            triangles = renderer.render_timed(model, data, wrist)["triangles"]
+            renderer.hidden = None
+            assert np.array_equal(env.render("eye_in_hand"), image)
+            fewer += triangles < renderer.render_timed(model, data, wrist)["triangles"]
+            renderer.hidden = hidden
+            for _ in range(12):
+                env.advance(PUSH)
+        assert fewer == 4  # the pedestal was left out at every state
+        assert shown > 0  # and a mesh in view was found visible, so drawn
+
+
 def test_the_wrist_camera_is_drawn_without_the_mirror_pass_and_nearly_the_same() -> None:
     import mujoco
 

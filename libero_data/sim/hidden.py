@@ -1,0 +1,162 @@
+"""Large still meshes a mounted camera cannot see, left out once the GL proves them hidden.
+
+The robot's pedestal (21 k triangles at ``fast``'s 0.5 mm) stands in every LIBERO scene under the
+robot's base, beside the table. From the wrist camera, above the table, the base and the table
+top hide it: a segmentation image of libero_90/75's first wrist frame shows no pixel of it, yet
+drawing it cost that frame ~3.8 ms of ~14 (leave-one-out, a one-off script). No plane or box test
+proves it hidden (it rises above the table top, behind the base), but the depth buffer does.
+
+:class:`HiddenGeoms` draws a mounted camera's scene without the large still meshes it believes
+hidden, then asks the GL (an occlusion query) whether any sample of each one's bounding box,
+slightly enlarged, would pass the depth test against what was drawn. The box holds its mesh, so
+a box none of whose samples pass proves the mesh changes no pixel: the image is the one drawn
+with it (tested). If a box shows, the scene is drawn again with the mesh, and the mesh is
+believed visible: left in, and tested again after :data:`RETEST_FRAMES` frames (then twice as
+many, up to :data:`RETEST_MAX`), so a mesh in view costs a second draw rarely. Whatever is
+believed, the image is the full scene's: only the time depends on what was drawn before.
+
+Only for cameras drawn without the mirror pass (a reflection may show the mesh). MuJoCo draws
+transparent geoms without writing depth (libero_10/9's wrist frame with its 0.25-alpha geom has
+the same depth buffer with and without it), so a mesh behind glass shows to the query too.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+#: Meshes with fewer triangles (in the drawing context) are not worth a query.
+MIN_TRIANGLES = 4000
+#: The bounding box is enlarged by this much (metres) on every side before the query.
+BOX_MARGIN_M = 0.002
+#: A mesh found visible is tested again after this many of the camera's frames, then after
+#: twice as many each time it is found visible again, up to :data:`RETEST_MAX`.
+RETEST_FRAMES = 8
+RETEST_MAX = 64
+
+_SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
+_FACES = ((0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5))
+
+
+def large_still_meshes(model: Any, facenum: np.ndarray) -> set[int]:
+    """Geoms of ``model`` drawing a mesh of at least :data:`MIN_TRIANGLES` (``facenum``: the
+    context's triangles per mesh) on a body that never moves (welded to the world, not mocap)."""
+    import mujoco
+
+    from libero_data.sim.meshes import drawn_geoms
+
+    body = model.geom_bodyid
+    still = (model.body_weldid[body] == 0) & (model.body_mocapid[model.body_rootid[body]] < 0)
+    meshes = drawn_geoms(model) & (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
+    large = np.asarray(facenum)[np.maximum(model.geom_dataid, 0)] >= MIN_TRIANGLES
+    return {int(g) for g in np.flatnonzero(still & meshes & large)}
+
+
+class HiddenGeoms:
+    """Per camera, which of ``geoms`` (see :func:`large_still_meshes`) are believed hidden, and
+    the draw that leaves them out when the GL proves it."""
+
+    def __init__(self, geoms: set[int]) -> None:
+        self.geoms = geoms
+        # (camera, geom) found visible -> (frames until its next test, the interval it waited)
+        self._visible: dict[tuple[int, int], tuple[int, int]] = {}
+
+    def draw(self, model: Any, scene: Any, context: Any, viewport: Any, camera_id: int) -> list[int]:
+        """``mjr_render`` the scene (its GL context current): without the meshes proved hidden.
+        Returns the scene rows left out."""
+        import mujoco
+
+        rows = self._due(scene, camera_id)
+        if not rows:
+            mujoco.mjr_render(viewport, scene, context)
+            return []
+        kinds = {k: int(scene.geoms[k].type) for k in rows}
+        self._render_without(scene, context, viewport, rows, kinds)
+        shown = [k for k in rows if self._shows(model, scene, k)]
+        for k in rows:
+            key = (camera_id, int(scene.geoms[k].objid))
+            if k in shown:
+                interval = (
+                    min(2 * self._visible[key][1], RETEST_MAX) if key in self._visible else RETEST_FRAMES
+                )
+                self._visible[key] = (interval, interval)
+            else:
+                self._visible.pop(key, None)
+        hidden = [k for k in rows if k not in shown]
+        if shown:  # drawn again with what showed, still without what was proved hidden
+            self._render_without(scene, context, viewport, hidden, kinds)
+        return hidden
+
+    @staticmethod
+    def _render_without(
+        scene: Any, context: Any, viewport: Any, rows: list[int], kinds: dict[int, int]
+    ) -> None:
+        import mujoco
+
+        for k in rows:
+            scene.geoms[k].type = int(mujoco.mjtGeom.mjGEOM_NONE)
+        mujoco.mjr_render(viewport, scene, context)
+        for k in rows:
+            scene.geoms[k].type = kinds[k]
+
+    def _due(self, scene: Any, camera_id: int) -> list[int]:
+        """The scene rows to leave out and test now: candidates in the scene believed hidden or
+        due for a test."""
+        import mujoco
+
+        mesh = int(mujoco.mjtGeom.mjGEOM_MESH)
+        rows = []
+        for k in range(scene.ngeom):
+            g = scene.geoms[k]
+            if g.type != mesh or g.objtype != mujoco.mjtObj.mjOBJ_GEOM or int(g.objid) not in self.geoms:
+                continue
+            key = (camera_id, int(g.objid))
+            wait, interval = self._visible.get(key, (0, 0))
+            if wait > 1:
+                self._visible[key] = (wait - 1, interval)
+            else:
+                rows.append(k)
+        return rows
+
+    @staticmethod
+    def _shows(model: Any, scene: Any, k: int) -> bool:
+        """Whether any sample of scene geom ``k``'s enlarged bounding box passes the depth test
+        against the frame just drawn (matrices and depth test as ``mjr_render`` left them)."""
+        from OpenGL import GL
+
+        g = scene.geoms[k]
+        box = model.geom_aabb[g.objid]
+        corners = (
+            np.asarray(g.pos)
+            + (box[:3] + _SIGNS * (box[3:] + BOX_MARGIN_M)) @ np.asarray(g.mat).reshape(3, 3).T
+        )
+        camera = scene.camera[0]
+        depth = (corners - np.asarray(camera.pos)) @ np.asarray(camera.forward)
+        if depth.min() <= 1.01 * camera.frustum_near:  # the near plane would cut the box open
+            return True
+        query = int(GL.glGenQueries(1))
+        GL.glPushAttrib(GL.GL_ALL_ATTRIB_BITS)
+        try:
+            GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
+            GL.glDepthMask(GL.GL_FALSE)
+            for capability in (
+                GL.GL_CULL_FACE,
+                GL.GL_TEXTURE_2D,
+                GL.GL_LIGHTING,
+                GL.GL_ALPHA_TEST,
+                GL.GL_STENCIL_TEST,
+            ):
+                GL.glDisable(capability)
+            GL.glBeginQuery(GL.GL_SAMPLES_PASSED, query)
+            GL.glBegin(GL.GL_QUADS)
+            for face in _FACES:
+                for i in face:
+                    GL.glVertex3d(*corners[i])
+            GL.glEnd()
+            GL.glEndQuery(GL.GL_SAMPLES_PASSED)
+        finally:
+            GL.glPopAttrib()
+        samples = int(GL.glGetQueryObjectuiv(query, GL.GL_QUERY_RESULT))
+        GL.glDeleteQueries(1, np.array([query], dtype=np.uint32))
+        return samples > 0
