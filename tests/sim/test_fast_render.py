@@ -62,10 +62,12 @@ def test_leaving_out_geoms_outside_the_view_changes_no_pixel() -> None:
             assert np.array_equal(env.render(camera), culled[camera]), camera
 
 
-def test_geoms_whose_bounding_box_is_outside_the_view_are_left_out_and_no_pixel_changes() -> None:
-    # libero_90/75 (a study room): the room's bookshelf, plant and painting have bounding spheres
-    # of 1-1.1 m that reach into the wrist camera's view from beside or behind the robot; their
-    # boxes do not. With spheres alone the wrist drew 63.9 k triangles at the first state.
+def test_what_a_study_room_leaves_out_changes_no_pixel() -> None:
+    # libero_90/75. (1) Culling by bounding box: the room's bookshelf, plant and painting have
+    # bounding spheres of 1-1.1 m that reach into the wrist camera's view from beside or behind
+    # the robot; their boxes do not (with spheres alone the wrist drew 63.9 k triangles at the
+    # first state). (2) Occlusion queries: the pedestal is hidden from the wrist camera and left
+    # out; the desk caddy on the table shows, so the frame is drawn again with it.
     task = get_task("libero_90/75")
     with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
@@ -73,38 +75,24 @@ def test_geoms_whose_bounding_box_is_outside_the_view_are_left_out_and_no_pixel_
         wrist = env._camera_id("eye_in_hand")
         env.render("eye_in_hand")
         renderer = env._fast._built(model, wrist)[0]
-        assert renderer.render_timed(model, data, wrist)["triangles"] < 55_000
-        for _ in range(3):
-            culled = {c: env.render(c) for c in CAMERAS}
-            for camera in CAMERAS:
-                built = env._fast._built(model, env._camera_id(camera))[0]
-                built.cull = False
-                assert np.array_equal(env.render(camera), culled[camera]), camera
-                built.cull = True
-            for _ in range(12):
-                env.advance(PUSH)
-
-
-def test_large_still_meshes_proved_hidden_from_the_wrist_are_left_out_and_no_pixel_changes() -> None:
-    # libero_90/75: the pedestal is hidden from the wrist camera, the desk caddy on the table
-    # shows (the frame is drawn again with it).
-    task = get_task("libero_90/75")
-    with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
-        env.reset(task.init_states()[0], seed=0, render=False)
-        model, data = env.sim.model._model, env.sim.data._data
-        wrist = env._camera_id("eye_in_hand")
-        env.render("eye_in_hand")
-        renderer = env._fast._built(model, wrist)[0]
+        renderers = {id(r): r for r in (env._fast._built(model, env._camera_id(c))[0] for c in CAMERAS)}
         hidden = renderer.hidden
         assert hidden is not None and len(hidden.geoms) >= 2
+        renderer.hidden = None
+        assert renderer.render_timed(model, data, wrist)["triangles"] < 55_000
+        renderer.hidden = hidden
         fewer, shown = 0, 0
         for _ in range(4):
-            image = env.render("eye_in_hand")
+            images = {c: env.render(c) for c in CAMERAS}
             shown += bool(hidden._visible)
-            triangles = renderer.render_timed(model, data, wrist)["triangles"]
-            renderer.hidden = None
-            assert np.array_equal(env.render("eye_in_hand"), image)
-            fewer += triangles < renderer.render_timed(model, data, wrist)["triangles"]
+            left = renderer.render_timed(model, data, wrist)["triangles"]
+            for r in renderers.values():
+                r.cull, r.hidden = False, None
+            for camera in CAMERAS:
+                assert np.array_equal(env.render(camera), images[camera]), camera
+            for r in renderers.values():
+                r.cull = True
+            fewer += left < renderer.render_timed(model, data, wrist)["triangles"]
             renderer.hidden = hidden
             for _ in range(12):
                 env.advance(PUSH)
