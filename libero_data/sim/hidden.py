@@ -135,7 +135,7 @@ class HiddenGeoms:
         depth = (corners - np.asarray(camera.pos)) @ np.asarray(camera.forward)
         if depth.min() <= 1.01 * camera.frustum_near:  # the near plane would cut the box open
             return True
-        query = int(GL.glGenQueries(1))
+        query = int(np.ravel(GL.glGenQueries(1))[0])
         GL.glPushAttrib(GL.GL_ALL_ATTRIB_BITS)
         try:
             GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
