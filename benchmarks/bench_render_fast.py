@@ -120,6 +120,15 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
     finally:
         renderer.unmirrored = kept
     out["eye_in_hand_draw_mirrored"] = statistics.median(t["draw"] for t in timed)
+    # ... and without the occlusion queries that leave out the large still meshes it cannot see
+    # (the mirrored draw above has none either: they are only for cameras without the pass).
+    queried, renderer.hidden = renderer.hidden, None
+    try:
+        timed = [renderer.render_timed(model, data, wrist) for _ in range(frames)]
+    finally:
+        renderer.hidden = queried
+    out["eye_in_hand_draw_unqueried"] = statistics.median(t["draw"] for t in timed)
+    out["eye_in_hand_triangles_unqueried"] = statistics.median(t["triangles"] for t in timed)
     # What agentview's draw would cost from the wrist's renderer: every mesh at 0.5 mm, the
     # distant ones included (the same renderer where the scene has no distant still mesh).
     front = env._camera_id("agentview")
@@ -257,15 +266,17 @@ def tables(
         f"--generate-episodes {args.generate_episodes}"
         + (f" --sample {args.sample} --seed {args.seed}" if args.sample else "")
         + f"`. CPU: {cpu_model()}. Shares of a fast step: physics, drawing (both cameras, finished), "
-        "reading the pixels back, and the rest (scene updates, the step's own work). The last two columns, "
+        "reading the pixels back, and the rest (scene updates, the step's own work). The last three columns, "
         "each lever alone: the wrist camera's draw as `fast` makes it and with MuJoCo's mirror pass, which "
-        "`fast` leaves out for that camera (the same where the scene has no reflective surface); agentview's "
-        "draw as `fast` makes it and with every mesh at 0.5 mm (the wrist's renderer), triangles drawn.",
+        "`fast` leaves out for that camera (the same where the scene has no reflective surface; no occlusion "
+        "queries either, which are only for cameras without the pass); the wrist's draw without the occlusion "
+        "queries that leave out the large still meshes it cannot see (triangles drawn); agentview's draw as "
+        "`fast` makes it and with every mesh at 0.5 mm (the wrist's renderer), triangles drawn.",
         "",
         "| scene | layout | size | triangles, full → fast (drawn: agentview, wrist) | reflective, lights | LIBERO step ms | "
         "fast step ms | **fast / LIBERO** | physics | draw | read-back | other | wrist draw, with its mirror pass | "
-        "agentview draw, with 0.5 mm distant meshes |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "wrist draw, without occlusion queries | agentview draw, with 0.5 mm distant meshes |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         step = r["fast_step"]
@@ -279,6 +290,8 @@ def tables(
             f"{step * 1e3:.1f} | **{r['libero_step'] / step:.2f}×** | {r['physics_step'] / step:.0%} | "
             f"{draw / step:.0%} | {read / step:.0%} | {other / step:.0%} | "
             f"{r['eye_in_hand_draw'] * 1e3:.1f} → {r['eye_in_hand_draw_mirrored'] * 1e3:.1f} ms | "
+            f"{r['eye_in_hand_draw'] * 1e3:.1f} → {r['eye_in_hand_draw_unqueried'] * 1e3:.1f} ms "
+            f"({r['eye_in_hand_triangles'] / 1000:.0f} k → {r['eye_in_hand_triangles_unqueried'] / 1000:.0f} k) | "
             f"{r['agentview_draw'] * 1e3:.1f} → {r['agentview_draw_fine'] * 1e3:.1f} ms "
             f"({r['agentview_triangles'] / 1000:.0f} k → {r['agentview_triangles_fine'] / 1000:.0f} k) |"
         )
