@@ -35,13 +35,12 @@ BOX_MARGIN_M = 0.002
 RETEST_FRAMES = 8
 RETEST_MAX = 64
 
-_SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
 _FACES = ((0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5))
 
 
-def large_still_meshes(model: Any, facenum: np.ndarray) -> set[int]:
-    """Geoms of ``model`` drawing a mesh of at least :data:`MIN_TRIANGLES` (``facenum``: the
-    context's triangles per mesh) on a body that never moves (welded to the world, not mocap)."""
+def large_still_meshes(model: Any) -> set[int]:
+    """Geoms of ``model`` (the copy a context draws) drawing a mesh of at least
+    :data:`MIN_TRIANGLES` on a body that never moves (welded to the world, not under a mocap body)."""
     import mujoco
 
     from libero_data.sim.meshes import drawn_geoms
@@ -49,7 +48,7 @@ def large_still_meshes(model: Any, facenum: np.ndarray) -> set[int]:
     body = model.geom_bodyid
     still = (model.body_weldid[body] == 0) & (model.body_mocapid[model.body_rootid[body]] < 0)
     meshes = drawn_geoms(model) & (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
-    large = np.asarray(facenum)[np.maximum(model.geom_dataid, 0)] >= MIN_TRIANGLES
+    large = model.mesh_facenum[np.maximum(model.geom_dataid, 0)] >= MIN_TRIANGLES
     return {int(g) for g in np.flatnonzero(still & meshes & large)}
 
 
@@ -71,9 +70,8 @@ class HiddenGeoms:
         if not rows:
             mujoco.mjr_render(viewport, scene, context)
             return []
-        kinds = {k: int(scene.geoms[k].type) for k in rows}
-        self._render_without(scene, context, viewport, rows, kinds)
-        shown = [k for k in rows if self._shows(model, scene, k)]
+        _render_without(scene, context, viewport, rows)
+        shown = _showing(model, scene, rows)
         for k in rows:
             key = (camera_id, int(scene.geoms[k].objid))
             if k in shown:
@@ -85,20 +83,8 @@ class HiddenGeoms:
                 self._visible.pop(key, None)
         hidden = [k for k in rows if k not in shown]
         if shown:  # drawn again with what showed, still without what was proved hidden
-            self._render_without(scene, context, viewport, hidden, kinds)
+            _render_without(scene, context, viewport, hidden)
         return hidden
-
-    @staticmethod
-    def _render_without(
-        scene: Any, context: Any, viewport: Any, rows: list[int], kinds: dict[int, int]
-    ) -> None:
-        import mujoco
-
-        for k in rows:
-            scene.geoms[k].type = int(mujoco.mjtGeom.mjGEOM_NONE)
-        mujoco.mjr_render(viewport, scene, context)
-        for k in rows:
-            scene.geoms[k].type = kinds[k]
 
     def _due(self, scene: Any, camera_id: int) -> list[int]:
         """The scene rows to leave out and test now: candidates in the scene believed hidden or
@@ -119,44 +105,65 @@ class HiddenGeoms:
                 rows.append(k)
         return rows
 
-    @staticmethod
-    def _shows(model: Any, scene: Any, k: int) -> bool:
-        """Whether any sample of scene geom ``k``'s enlarged bounding box passes the depth test
-        against the frame just drawn (matrices and depth test as ``mjr_render`` left them)."""
-        from OpenGL import GL
 
-        g = scene.geoms[k]
-        box = model.geom_aabb[g.objid]
-        corners = (
-            np.asarray(g.pos)
-            + (box[:3] + _SIGNS * (box[3:] + BOX_MARGIN_M)) @ np.asarray(g.mat).reshape(3, 3).T
-        )
-        camera = scene.camera[0]
-        depth = (corners - np.asarray(camera.pos)) @ np.asarray(camera.forward)
-        if depth.min() <= 1.01 * camera.frustum_near:  # the near plane would cut the box open
-            return True
-        query = int(np.ravel(GL.glGenQueries(1))[0])
-        GL.glPushAttrib(GL.GL_ALL_ATTRIB_BITS)
-        try:
-            GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
-            GL.glDepthMask(GL.GL_FALSE)
-            for capability in (
-                GL.GL_CULL_FACE,
-                GL.GL_TEXTURE_2D,
-                GL.GL_LIGHTING,
-                GL.GL_ALPHA_TEST,
-                GL.GL_STENCIL_TEST,
-            ):
-                GL.glDisable(capability)
-            GL.glBeginQuery(GL.GL_SAMPLES_PASSED, query)
+def _render_without(scene: Any, context: Any, viewport: Any, rows: list[int]) -> None:
+    """``mjr_render`` the scene without its mesh geoms ``rows`` (left in the scene as they were)."""
+    import mujoco
+
+    for k in rows:
+        scene.geoms[k].type = int(mujoco.mjtGeom.mjGEOM_NONE)
+    mujoco.mjr_render(viewport, scene, context)
+    for k in rows:
+        scene.geoms[k].type = int(mujoco.mjtGeom.mjGEOM_MESH)
+
+
+def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:
+    """The scene rows among ``rows`` whose enlarged bounding box has a sample passing the depth
+    test against the frame just drawn (matrices and depth test as ``mjr_render`` left them): one
+    occlusion query each, all issued before any result is read."""
+    from OpenGL import GL
+
+    from libero_data.sim.meshes import box_corners
+
+    geoms = [scene.geoms[k] for k in rows]
+    corners = box_corners(
+        np.array([g.pos for g in geoms], dtype=np.float64),
+        np.array([g.mat for g in geoms], dtype=np.float64).reshape(-1, 3, 3),
+        model.geom_aabb[[g.objid for g in geoms]],
+        BOX_MARGIN_M,
+    )
+    camera = scene.camera[0]
+    depth = (corners - np.asarray(camera.pos)) @ np.asarray(camera.forward)
+    cut = depth.min(axis=1) <= 1.01 * camera.frustum_near  # the near plane would cut the box open
+    shown = {k for k, c in zip(rows, cut, strict=True) if c}
+    asked = [i for i, c in enumerate(cut) if not c]
+    if not asked:
+        return shown
+    queries = np.ravel(GL.glGenQueries(len(asked))).astype(np.uint32)
+    GL.glPushAttrib(GL.GL_ALL_ATTRIB_BITS)
+    try:
+        GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
+        GL.glDepthMask(GL.GL_FALSE)
+        for capability in (
+            GL.GL_CULL_FACE,
+            GL.GL_TEXTURE_2D,
+            GL.GL_LIGHTING,
+            GL.GL_ALPHA_TEST,
+            GL.GL_STENCIL_TEST,
+        ):
+            GL.glDisable(capability)
+        for query, i in zip(queries, asked, strict=True):
+            GL.glBeginQuery(GL.GL_SAMPLES_PASSED, int(query))
             GL.glBegin(GL.GL_QUADS)
             for face in _FACES:
-                for i in face:
-                    GL.glVertex3d(*corners[i])
+                for corner in face:
+                    GL.glVertex3d(*corners[i, corner])
             GL.glEnd()
             GL.glEndQuery(GL.GL_SAMPLES_PASSED)
-        finally:
-            GL.glPopAttrib()
-        samples = int(GL.glGetQueryObjectuiv(query, GL.GL_QUERY_RESULT))
-        GL.glDeleteQueries(1, np.array([query], dtype=np.uint32))
-        return samples > 0
+    finally:
+        GL.glPopAttrib()
+    for query, i in zip(queries, asked, strict=True):
+        if int(GL.glGetQueryObjectuiv(int(query), GL.GL_QUERY_RESULT)) > 0:
+            shown.add(rows[i])
+    GL.glDeleteQueries(len(queries), queries)
+    return shown

@@ -328,6 +328,18 @@ def drawn_geoms(model: Any) -> np.ndarray:
     return np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
 
 
+_SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
+
+
+def box_corners(pos: np.ndarray, mat: np.ndarray, aabb: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """The world corners ``(n, 8, 3)`` of geoms' bounding boxes, each enlarged by ``margin``:
+    ``pos`` ``(n, 3)`` and ``mat`` ``(n, 3, 3)`` the geoms' frames, ``aabb`` ``(n, 6)`` MuJoCo's
+    ``geom_aabb`` (centre, then half-sizes, in the geom's frame). Corner ``i`` takes the sign
+    ``-``/``+`` per axis from the bits of ``i`` (x the highest)."""
+    local = aabb[:, None, :3] + _SIGNS[None] * (aabb[:, None, 3:] + margin)
+    return pos[:, None] + local @ mat.transpose(0, 2, 1)
+
+
 def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:
     """Meshes on the bodies of cameras mounted on a body (not the world), and on their descendants."""
     import mujoco

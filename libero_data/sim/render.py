@@ -33,6 +33,7 @@ from libero_data.sim.meshes import (
     MeshData,
     MeshSettings,
     apply_faces,
+    box_corners,
     camera_meshes,
     drawn_geoms,
     drawn_meshes,
@@ -216,9 +217,8 @@ def _cull(scene: Any, model: Any, data: Any, camera_id: int) -> int:
     radius = model.geom_rbound[objids]
     centres = np.array([geoms[k].pos for k in rows], dtype=np.float64)
     turns = np.array([geoms[k].mat for k in rows], dtype=np.float64).reshape(-1, 3, 3)
-    boxes = model.geom_aabb[objids]  # centre, then half-sizes, in the geom's frame
-    corners = boxes[:, None, :3] + _SIGNS[None] * boxes[:, None, 3:]
-    points = np.concatenate([centres[:, None], centres[:, None] + corners @ turns.transpose(0, 2, 1)], axis=1)
+    corners = box_corners(centres, turns, model.geom_aabb[objids])
+    points = np.concatenate([centres[:, None], corners], axis=1)
     local = (points - position) @ rotation  # (geoms, centre + 8 corners, 3) in the camera's frame
     reach = np.concatenate([radius[:, None], np.zeros((len(rows), 8))], axis=1)
     depth = -local[..., 2]  # cameras look along their -z axis
@@ -233,9 +233,6 @@ def _cull(scene: Any, model: Any, data: Any, camera_id: int) -> int:
     for k in np.flatnonzero(outside):
         geoms[rows[k]].type = none
     return int(outside.sum())
-
-
-_SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
 
 
 def _gl_context(backend: str | None, size: int) -> Any:
@@ -299,7 +296,7 @@ def fast_renderer(
     shrink_textures(render_model, texture_cap)
     near = NearDetail(model, render_model, camera_ids, faces, detail) if detail else None
     mounted = mounted_cameras(model, camera_ids)
-    hidden = HiddenGeoms(large_still_meshes(render_model, render_model.mesh_facenum)) if mounted else None
+    hidden = HiddenGeoms(large_still_meshes(render_model)) if mounted else None
     return OffscreenRenderer(
         render_model, size, backend, cull=True, unmirrored=mounted, detail=near, hidden=hidden
     )
