@@ -87,6 +87,7 @@ class Cell:
 def make_cells(request: SweepRequest, folder: Path) -> list[Cell]:
     """Write the variants (and sources) as a suite folder; the cells in order."""
     from libero_data.bddl import write
+    from libero_data.perturb.levels import KINDS
     from libero_data.procedural.sampler import SamplingError
     from libero_data.procedural.variants import make_variant
     from libero_data.runtime.files import write_json, write_text
@@ -98,9 +99,11 @@ def make_cells(request: SweepRequest, folder: Path) -> list[Cell]:
         task = get_task(ref)
         source = dataclasses.replace(task.problem, language=task.language.lower())
         entries: list[tuple[int, str, Any, str]] = [(0, "", source, "")]
-        for j, kind in enumerate(request.kinds):
+        for kind in request.kinds:
             for level in request.levels:
-                rng = variant_level_rng(request.seed, task.index, j, level)
+                # Seeded by the kind's place among all kinds, not among those asked for: a sweep of some
+                # kinds draws the same variants as those cells of a full sweep with the same seed.
+                rng = variant_level_rng(request.seed, task.index, KINDS.index(kind), level)
                 try:
                     problem = make_variant(
                         task.problem, task.id, kind, rng, language=task.language, level=level

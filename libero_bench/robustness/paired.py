@@ -51,6 +51,12 @@ def _pairs(a: dict[str, Any], b: dict[str, Any]) -> dict[tuple[str, int], list[t
                 f"the sweeps started {name} from different held-out placements (seeds "
                 f"{seeds_a[:3]}... and {seeds_b[:3]}...), so their outcomes cannot be paired"
             )
+    seed_a, seed_b = a["request"].get("seed", 0), b["request"].get("seed", 0)
+    if seed_a != seed_b:
+        raise RunError(
+            f"the sweeps drew their variants with different seeds ({seed_a} and {seed_b}), so a cell of one "
+            "is not the same perturbation as the cell of the same name in the other"
+        )
     out: dict[tuple[str, int], list[tuple[bool, bool]]] = {}
     cells_b = {c["name"]: c for c in b["table"]["cells"]}
     kinds = [k for k in a["table"]["grid"] if k in b["table"]["grid"]]

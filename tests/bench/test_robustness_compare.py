@@ -99,3 +99,30 @@ def test_sweeps_of_several_tasks_pool(tmp_path: Path) -> None:
     assert pooled["a"]["policy_name"] == "a1, a2"
     with pytest.raises(RunError, match="as many sweeps"):
         compare_sweeps([a1, a2], [b1])
+
+
+def test_sweeps_of_other_variant_seeds_are_not_paired(tmp_path: Path) -> None:
+    a = _sweep(tmp_path / "a", {TASK: 5})
+    b = _sweep(tmp_path / "b", {TASK: 5})
+    summary = json.loads((b / "robustness.json").read_text())
+    summary["request"]["seed"] = 1
+    (b / "robustness.json").write_text(json.dumps(summary))
+    with pytest.raises(RunError, match="different seeds"):
+        compare_sweeps(a, b)
+
+
+def test_a_sweep_of_some_kinds_draws_the_full_sweeps_variants(tmp_path: Path) -> None:
+    """A cell's variant depends on its kind, level and seed, not on which other kinds are swept: a
+    level-3 sweep of the trained kinds can be paired with those cells of a full sweep."""
+    from libero_bench.robustness.cells import SweepRequest, make_cells
+    from libero_data.perturb.levels import KINDS
+
+    def variants(kinds: tuple[str, ...], folder: Path) -> dict[str, str]:
+        request = SweepRequest(tasks=("libero_object/0",), kinds=kinds, levels=(3,), rollouts=1)
+        cells = make_cells(request, folder)
+        return {c.name: Path(c.bddl).read_text() for c in cells if not c.reason}
+
+    full = variants(KINDS, tmp_path / "full")
+    some = variants(("noise", "camera"), tmp_path / "some")
+    assert len(some) == 3  # the source task and the two variants
+    assert all(full[name] == text for name, text in some.items())
