@@ -31,6 +31,17 @@
 # seed draws another camera, light, texture, noise and arm offset of that level), from the same
 # held-out starts, into sweeps/<run>-draw<seed>; the report pools them with the main sweep's
 # level-3 cells. ~12 min per run and seed on 2 cores. The runs must be trained (or committed).
+#
+# Why the goal was missed: LEVERS=1 benchmarks/robustness_data.sh WORK_DIR object-0 trains three more
+# runs of each task named, side by side, and sweeps each at level 3 of the trained kinds with the main
+# sweep's variants (seed 0) and held-out starts, so the report pairs them with A's and B's cells:
+#   single-aug-<task>  A with the policy's training-time image augmentation (random shift, colour
+#                      jitter: --set augment=true; the quick preset trains without it)
+#   mixed-aug-<task>   B with it
+#   mixed-long-<task>  B trained 16 epochs more from its final weights (--init-checkpoint: twice the
+#                      gradient steps, a fresh cosine schedule)
+# ~45 min of training (three runs on 2 cores: ~70) and ~12 min per sweep. A and B must be trained (or
+# committed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-../quick-work}"
@@ -56,11 +67,12 @@ restore() {  # name: the committed run folder into $work/runs, if only it has th
   return 1
 }
 
-train() {  # name data task [mix]
+train() {  # name data task [mix [run options...]]
   local name=$1 data=$2 index=$3 mix=${4:-}
+  shift 4 || shift $#
   restore "$name" && return
-  local extra=()
-  [[ -n "$mix" ]] && extra=(--mix "$mix" --mix-weight 0.5)
+  local extra=("$@")
+  [[ -n "$mix" ]] && extra+=(--mix "$mix" --mix-weight 0.5)
   echo "$(date +%H:%M) train $name (log: $work/logs/$name.log)"
   $lb run --data "$data" --tasks "$index" --algo seql --policy resnet_t --preset quick \
     --workers 2 --threads 1 "${extra[@]}" --out "$work/runs/$name" \
@@ -118,5 +130,32 @@ for seed in ${DRAWS:-}; do
     done
   done
 done
+if [[ -n ${LEVERS:-} ]]; then
+  for name in "${chosen[@]}"; do
+    IFS=: read -r suite index <<<"${suites[$name]}"
+    levers=(single-aug mixed-aug mixed-long)
+    all=1
+    for lever in "${levers[@]}"; do [[ -f $results/sweeps/$lever-$name/robustness.json ]] || all=0; done
+    ((all)) && { echo "$name: the levers' sweeps already in $results, skipped"; continue; }
+    for arm in single mixed; do
+      restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
+        || { echo "$arm-$name is neither in $work nor committed: run without LEVERS first" >&2; exit 2; }
+    done
+    data "$name" "$suite" "$index"
+    pids=()
+    train "single-aug-$name" "$work/$name-64" "$index" "" --set augment=true &
+    pids+=($!)
+    train "mixed-aug-$name" "$work/$name-64" "$index" "$work/$name-variants" --set augment=true &
+    pids+=($!)
+    train "mixed-long-$name" "$work/$name-64" "$index" "$work/$name-variants" \
+      --init-checkpoint "$work/runs/mixed-$name/checkpoints/task_000.safetensors" &
+    pids+=($!)
+    for pid in "${pids[@]}"; do wait "$pid" || { echo "a lever run of $name failed; see $work/logs" >&2; exit 1; }; done
+    for lever in "${levers[@]}"; do
+      [[ -f $results/sweeps/$lever-$name/robustness.json ]] \
+        || sweep "$lever-$name" "$suite/$index" "$lever-$name" --levels 3 --kinds "$kinds"
+    done
+  done
+fi
 .venv/bin/python -m benchmarks.robustness_data_report "$results"
 echo "report in $results"

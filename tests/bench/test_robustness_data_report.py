@@ -15,16 +15,22 @@ LEVELS = (1, 3, 5)
 N = 10
 
 
-def _sweep(folder: Path, wins: int, perturbed_wins: int) -> None:
+def _sweep(
+    folder: Path,
+    wins: int,
+    perturbed_wins: int,
+    kinds: tuple[str, ...] = KINDS,
+    levels: tuple[int, ...] = LEVELS,
+) -> None:
     cells = [Cell(TASK, "", 0, TASK, "pick", "x.bddl")]
-    cells += [Cell(TASK, k, lv, f"{TASK}__{k}_l{lv}", "pick", "x.bddl") for k in KINDS for lv in LEVELS]
+    cells += [Cell(TASK, k, lv, f"{TASK}__{k}_l{lv}", "pick", "x.bddl") for k in kinds for lv in levels]
     outcomes = {c.name: [i < (perturbed_wins if c.kind else wins) for i in range(N)] for c in cells}
     folder.mkdir(parents=True)
     report = {
         "policy": str(folder),
         "policy_name": folder.name,
-        "request": {"tasks": [TASK], "kinds": list(KINDS), "levels": list(LEVELS), "rollouts": N},
-        "table": table(cells, outcomes, KINDS, LEVELS),
+        "request": {"tasks": [TASK], "kinds": list(kinds), "levels": list(levels), "rollouts": N},
+        "table": table(cells, outcomes, kinds, levels),
         "heldout_seeds": {TASK: list(range(100, 100 + N))},
         "outcomes": outcomes,
     }
@@ -57,3 +63,17 @@ def test_more_draws_of_the_level3_cells_are_reported_alone_and_pooled(tmp_path: 
     assert "| object-0, draws 0-1 pooled | +35% |" in text
     assert "draw 2" not in text
     assert (tmp_path / "object-0" / "draws" / "compare.json").is_file()
+
+
+def test_levers_are_compared_with_both_runs_of_their_task(tmp_path: Path) -> None:
+    sweeps = tmp_path / "sweeps"
+    _sweep(sweeps / "single-object-0", wins=8, perturbed_wins=2)
+    _sweep(sweeps / "mixed-object-0", wins=8, perturbed_wins=5)
+    _sweep(sweeps / "mixed-long-object-0", wins=9, perturbed_wins=7, kinds=TRAINED, levels=(3,))
+    _sweep(sweeps / "mixed-aug-spatial-8", wins=9, perturbed_wins=7, kinds=TRAINED, levels=(3,))  # no A, B
+    text = summary(tmp_path)
+    assert "| mixed-long, object-0: B trained 16 epochs more" in text
+    assert "| 8/10 → 9/10 (+10%, p=1) | +50% [" in text  # against A: 2/10 -> 7/10 in every trained kind
+    assert "] | +20% [" in text  # against B: 5/10 -> 7/10
+    assert "spatial-8" not in text.split("Why the goal was missed")[1]
+    assert (tmp_path / "object-0" / "levers" / "mixed-long" / "compare.md").is_file()
