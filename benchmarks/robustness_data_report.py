@@ -83,6 +83,9 @@ def summary(results: Path) -> str:
         )
     at3 = mean_difference(pooled, TRAINED, 3)
     verdict = "met" if at3["difference"] >= GOAL else "missed"
+    room = {
+        task: _room(compare_sweeps(sweeps / a, sweeps / b)) for task, (a, b) in TASKS.items() if task in swept
+    }
     lines += [
         "",
         f"Goal: +{GOAL:.0%} averaged over the trained kinds at level 3: **{verdict}** "
@@ -92,10 +95,19 @@ def summary(results: Path) -> str:
         + ", ".join(f"`{task}/compare.md`" for task in swept)
         + ".",
         "",
+        "Room A left at level 3 (B − A if B succeeded in every trained kind's cell): "
+        + ", ".join(f"{task} {value:+.0%}" for task, value in room.items())
+        + f", pooled {_room(pooled):+.0%}.",
+        "",
     ]
     lines += _more_draws(results, swept)
     lines += _levers(results, swept)
     return "\n".join(lines)
+
+
+def _room(compared: dict[str, Any], level: int = 3) -> float:
+    """The most B − A could be over the trained kinds at ``level``: A's failures averaged."""
+    return sum(1.0 - compared["grid"][kind][str(level)]["a"]["rate"] for kind in TRAINED) / len(TRAINED)
 
 
 def draws(sweeps: Path, task: str) -> list[int]:

@@ -45,6 +45,7 @@ def test_the_report_pools_what_was_swept(tmp_path: Path) -> None:
     assert "| trained kinds, level 3 | +50% |" in text
     assert "kinds not trained on (layout, distractors, language), level 5 | +50% |" in text
     assert "**met** (+50%" in text
+    assert "Room A left at level 3 (B − A if B succeeded in every trained kind's cell): object-0 +80%" in text
     task = tmp_path / "object-0"
     assert (task / "compare.json").is_file() and (task / "compare.png").is_file()
     assert not (tmp_path / "pooled").exists()  # one task: its own comparison is the pooled one
