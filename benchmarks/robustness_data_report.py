@@ -199,6 +199,27 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
                 [sweeps / f"{arm}-{task}" for task in tasks] for arm in ("single", lever, "mixed")
             )
             lines.append(_lever_row(f"{lever}, {' and '.join(tasks)} pooled", a_all, x_all, b_all))
+    both = [task for task in found["single-aug"] if task in found["mixed-aug"]]
+    if both:
+        lines += [
+            "",
+            "The variant data where both runs are augmented (mixed-aug against single-aug, start for start):",
+            "",
+            "| task | unperturbed | mixed-aug − single-aug, trained kinds, level 3 |",
+            "|---|---:|---:|",
+        ]
+        for label, chosen in [(task, [task]) for task in both] + (
+            [("pooled", both)] if len(both) > 1 else []
+        ):
+            compared = compare_sweeps(
+                [sweeps / f"single-aug-{task}" for task in chosen],
+                [sweeps / f"mixed-aug-{task}" for task in chosen],
+            )
+            base, at3 = compared["grid"][TRAINED[0]]["0"], mean_difference(compared, TRAINED, 3)
+            lines.append(
+                f"| {label} | {base['a']['successes']}/{base['n']} → {base['b']['successes']}/{base['n']} "
+                f"(p={base['p_value']:.2g}) | {at3['difference']:+.0%} [{at3['low']:+.0%}, {at3['high']:+.0%}] |"
+            )
     return [*lines, ""]
 
 

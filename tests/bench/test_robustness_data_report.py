@@ -77,4 +77,9 @@ def test_levers_are_compared_with_both_runs_of_their_task(tmp_path: Path) -> Non
     assert "| 8/10 → 9/10 (+10%, p=1) | +50% [" in text  # against A: 2/10 -> 7/10 in every trained kind
     assert "] | +20% [" in text  # against B: 5/10 -> 7/10
     assert "spatial-8" not in text.split("Why the goal was missed")[1]
+    assert "mixed-aug against single-aug" not in text  # one of the two only
+    _sweep(sweeps / "single-aug-object-0", wins=10, perturbed_wins=4, kinds=TRAINED, levels=(3,))
+    _sweep(sweeps / "mixed-aug-object-0", wins=6, perturbed_wins=5, kinds=TRAINED, levels=(3,))
+    text = summary(tmp_path)
+    assert "| object-0 | 10/10 → 6/10 (p=0.12) | +10% [" in text
     assert (tmp_path / "object-0" / "levers" / "mixed-long" / "compare.md").is_file()
