@@ -40,8 +40,8 @@
 #   mixed-aug-<task>   B with it
 #   mixed-long-<task>  B trained 16 epochs more from its final weights (--init-checkpoint: twice the
 #                      gradient steps, a fresh cosine schedule)
-# ~45 min of training (three runs on 2 cores: ~70) and ~12 min per sweep. A and B must be trained (or
-# committed).
+# ~100 min for the three runs side by side on 2 cores and ~12 min per sweep. A and B must be trained
+# (or committed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-../quick-work}"
