@@ -76,7 +76,7 @@ train() {  # name data task [mix [run options...]]
   echo "$(date +%H:%M) train $name (log: $work/logs/$name.log)"
   $lb run --data "$data" --tasks "$index" --algo seql --policy resnet_t --preset quick \
     --workers 2 --threads 1 "${extra[@]}" --out "$work/runs/$name" \
-    >"$work/logs/$name.log" 2>&1
+    >>"$work/logs/$name.log" 2>&1
 }
 
 data() {  # name suite index: makes what is missing (generation resumes per episode)
@@ -92,7 +92,7 @@ sweep() {  # run suite/task folder [sweep options...]: into $work/sweeps/<folder
   shift 3
   echo "$(date +%H:%M) sweep $folder ($suite_task; log: $work/logs/sweep-$folder.log)"
   $lb robustness "$work/runs/$name" --tasks "$suite_task" --rollouts 10 --render-quality fast \
-    --workers 2 "$@" --out "$work/sweeps/$folder" >"$work/logs/sweep-$folder.log" 2>&1
+    --workers 2 "$@" --out "$work/sweeps/$folder" >>"$work/logs/sweep-$folder.log" 2>&1
   mkdir -p "$results/sweeps/$folder" "$results/runs/$name"
   cp "$work/sweeps/$folder"/robustness.{json,md,png} "$results/sweeps/$folder/"
   cp -r "$work/runs/$name"/{config.json,results.json,timings.jsonl,checkpoints} "$results/runs/$name/"
