@@ -35,18 +35,29 @@ def _line(what: str, figure: dict[str, Any]) -> str:
     return f"| {what} | {figure['difference']:+.0%} | [{figure['low']:+.0%}, {figure['high']:+.0%}] |"
 
 
+def _at3(compared: dict[str, Any]) -> str:
+    """B − A over the trained kinds at level 3, with its interval, as a table cell."""
+    figure = mean_difference(compared, TRAINED, 3)
+    return f"{figure['difference']:+.0%} [{figure['low']:+.0%}, {figure['high']:+.0%}]"
+
+
+def _unperturbed(compared: dict[str, Any]) -> str:
+    base = compared["grid"][TRAINED[0]]["0"]
+    return f"{base['a']['successes']}/{base['n']} → {base['b']['successes']}/{base['n']}"
+
+
 def summary(results: Path) -> str:
     sweeps = results / "sweeps"
     lines = ["# Robustness through data: unperturbed-only (A) against mixed (B) training", ""]
-    pooled_a, pooled_b, swept = [], [], []
+    pooled_a, pooled_b, per_task = [], [], {}
     for task, (a, b) in TASKS.items():
         if not ((sweeps / a / "robustness.json").is_file() and (sweeps / b / "robustness.json").is_file()):
             continue
-        swept.append(task)
-        compared = compare_sweeps(sweeps / a, sweeps / b)
-        write_comparison(compared, results / task)
+        per_task[task] = compare_sweeps(sweeps / a, sweeps / b)
+        write_comparison(per_task[task], results / task)
         pooled_a.append(sweeps / a)
         pooled_b.append(sweeps / b)
+    swept = list(per_task)
     if not swept:
         raise SystemExit(f"no task has both sweeps in {sweeps}: run benchmarks/robustness_data.sh first")
     missing = [task for task in TASKS if task not in swept]
@@ -83,9 +94,6 @@ def summary(results: Path) -> str:
         )
     at3 = mean_difference(pooled, TRAINED, 3)
     verdict = "met" if at3["difference"] >= GOAL else "missed"
-    room = {
-        task: _room(compare_sweeps(sweeps / a, sweeps / b)) for task, (a, b) in TASKS.items() if task in swept
-    }
     lines += [
         "",
         f"Goal: +{GOAL:.0%} averaged over the trained kinds at level 3: **{verdict}** "
@@ -96,7 +104,7 @@ def summary(results: Path) -> str:
         + ".",
         "",
         "Room A left at level 3 (B − A if B succeeded in every trained kind's cell): "
-        + ", ".join(f"{task} {value:+.0%}" for task, value in room.items())
+        + ", ".join(f"{task} {_room(compared):+.0%}" for task, compared in per_task.items())
         + f", pooled {_room(pooled):+.0%}.",
         "",
     ]
@@ -159,15 +167,15 @@ def _more_draws(results: Path, swept: list[str]) -> list[str]:
     return [*lines, ""]
 
 
-def _lever_row(what: str, a: list[Path], x: list[Path], b: list[Path]) -> str:
-    against_a, against_b = compare_sweeps(a, x), compare_sweeps(b, x)
+def _lever_row(what: str, a: list[Path], x: list[Path], b: list[Path], out: Path | None = None) -> str:
+    """The lever ``x`` against A and B (``out``: where its per-kind comparison with A goes)."""
+    against_a = compare_sweeps(a, x)
+    if out is not None:
+        write_comparison(against_a, out)
     base = against_a["grid"][TRAINED[0]]["0"]
-    at3, over_b = mean_difference(against_a, TRAINED, 3), mean_difference(against_b, TRAINED, 3)
     return (
-        f"| {what} | {base['a']['successes']}/{base['n']} → {base['b']['successes']}/{base['n']} "
-        f"({base['difference']:+.0%}, p={base['p_value']:.2g}) | {at3['difference']:+.0%} "
-        f"[{at3['low']:+.0%}, {at3['high']:+.0%}] | {over_b['difference']:+.0%} "
-        f"[{over_b['low']:+.0%}, {over_b['high']:+.0%}] |"
+        f"| {what} | {_unperturbed(against_a)} ({base['difference']:+.0%}, p={base['p_value']:.2g}) | "
+        f"{_at3(against_a)} | {_at3(compare_sweeps(b, x))} |"
     )
 
 
@@ -190,15 +198,12 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
         "|---|---:|---:|---:|",
     ]
     for lever, tasks in found.items():
-        for task in tasks:
-            a, x, b = (sweeps / f"{arm}-{task}" for arm in ("single", lever, "mixed"))
-            write_comparison(compare_sweeps(a, x), results / task / "levers" / lever)
-            lines.append(_lever_row(f"{lever}, {task}: {LEVERS[lever]}", [a], [x], [b]))
-        if len(tasks) > 1:
-            a_all, x_all, b_all = (
-                [sweeps / f"{arm}-{task}" for task in tasks] for arm in ("single", lever, "mixed")
-            )
-            lines.append(_lever_row(f"{lever}, {' and '.join(tasks)} pooled", a_all, x_all, b_all))
+        groups = [(f"{task}: {LEVERS[lever]}", [task]) for task in tasks]
+        groups += [(f"{' and '.join(tasks)} pooled", tasks)] if len(tasks) > 1 else []
+        for label, chosen in groups:
+            a, x, b = ([sweeps / f"{arm}-{task}" for task in chosen] for arm in ("single", lever, "mixed"))
+            out = results / chosen[0] / "levers" / lever if len(chosen) == 1 else None
+            lines.append(_lever_row(f"{lever}, {label}", a, x, b, out))
     both = [task for task in found["single-aug"] if task in found["mixed-aug"]]
     if both:
         lines += [
@@ -215,11 +220,8 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
                 [sweeps / f"single-aug-{task}" for task in chosen],
                 [sweeps / f"mixed-aug-{task}" for task in chosen],
             )
-            base, at3 = compared["grid"][TRAINED[0]]["0"], mean_difference(compared, TRAINED, 3)
-            lines.append(
-                f"| {label} | {base['a']['successes']}/{base['n']} → {base['b']['successes']}/{base['n']} "
-                f"(p={base['p_value']:.2g}) | {at3['difference']:+.0%} [{at3['low']:+.0%}, {at3['high']:+.0%}] |"
-            )
+            p_value = compared["grid"][TRAINED[0]]["0"]["p_value"]
+            lines.append(f"| {label} | {_unperturbed(compared)} (p={p_value:.2g}) | {_at3(compared)} |")
     return [*lines, ""]
 
 
