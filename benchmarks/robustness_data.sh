@@ -42,6 +42,14 @@
 #                      gradient steps, a fresh cosine schedule)
 # ~100 min for the three runs side by side on 2 cores and ~12 min per sweep. A and B must be trained
 # (or committed).
+#
+# More variant data: MORE=1 benchmarks/robustness_data.sh WORK_DIR object-0 makes two more draws of
+# every training variant (variant seeds 1 and 2: the same kinds and levels, other cameras, lights,
+# textures, noise and arm offsets; 20 demonstrations each, into <task>-variants-s1 and -s2) and trains
+#   mixed-more-<task>  B on all three draws (900 variant demonstrations of 45 variants instead of 300
+#                      of 15; the same weight 0.5 and the same budget)
+# then sweeps it like the levers. ~90 min of data, ~45 min to train and ~15 min to sweep per task on
+# 2 cores. A and B must be trained (or committed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-../quick-work}"
@@ -155,6 +163,28 @@ if [[ -n ${LEVERS:-} ]]; then
       [[ -f $results/sweeps/$lever-$name/robustness.json ]] \
         || sweep "$lever-$name" "$suite/$index" "$lever-$name" --levels 3 --kinds "$kinds"
     done
+  done
+fi
+if [[ -n ${MORE:-} ]]; then
+  for name in "${chosen[@]}"; do
+    IFS=: read -r suite index <<<"${suites[$name]}"
+    [[ -f $results/sweeps/mixed-more-$name/robustness.json ]] \
+      && { echo "$name: the mixed-more sweep already in $results, skipped"; continue; }
+    for arm in single mixed; do
+      restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
+        || { echo "$arm-$name is neither in $work nor committed: run without MORE first" >&2; exit 2; }
+    done
+    data "$name" "$suite" "$index"
+    more=()
+    for seed in 1 2; do
+      echo "$(date +%H:%M) variant draw $seed for $name"
+      $ld generate --variants-of "$suite" --tasks "$index" --kinds "$kinds" --level 1,2,3 \
+        --episodes-per-task 20 --image-size 64 --render-quality fast --workers 2 --seed "$seed" \
+        --out "$work/$name-variants-s$seed"
+      more+=(--mix "$work/$name-variants-s$seed")
+    done
+    train "mixed-more-$name" "$work/$name-64" "$index" "$work/$name-variants" "${more[@]}"
+    sweep "mixed-more-$name" "$suite/$index" "mixed-more-$name" --levels 3 --kinds "$kinds"
   done
 fi
 .venv/bin/python -m benchmarks.robustness_data_report "$results"

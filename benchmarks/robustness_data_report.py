@@ -28,6 +28,7 @@ LEVERS = {
     "single-aug": "A with training-time image augmentation (random shift, colour jitter)",
     "mixed-aug": "B with training-time image augmentation",
     "mixed-long": "B trained 16 epochs more from its final weights (twice the gradient steps)",
+    "mixed-more": "B with three draws of every variant (900 variant demonstrations instead of 300)",
 }
 
 
