@@ -94,6 +94,12 @@ def sample_scenes(n: int, seed: int) -> list[str]:
     return [t.id for t in sorted(chosen, key=lambda t: (order[t.suite], t.index))]
 
 
+def _with_sky(row: dict[str, Any], camera: str) -> str:
+    """A camera's draw as ``fast`` makes it → with the sky (* where it was left out)."""
+    mark = "*" if row[f"{camera}_sky_left_out"] else ""
+    return f"{row[f'{camera}_draw'] * 1e3:.1f}{mark} → {row[f'{camera}_draw_sky'] * 1e3:.1f} ms"
+
+
 def render_parts(env: Any, frames: int) -> dict[str, float]:
     """Medians over ``frames`` renders of each camera: update, draw and read-back seconds, the
     triangles drawn, and the reflective planes and boxes in the scene drawn (agentview)."""
@@ -135,6 +141,19 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
     timed = [renderer.render_timed(model, data, front) for _ in range(frames)]
     out["agentview_draw_fine"] = statistics.median(t["draw"] for t in timed)
     out["agentview_triangles_fine"] = statistics.median(t["triangles"] for t in timed)
+    # Each camera's draw with the sky, which `fast` leaves out where it is proved covered (.sky).
+    sky = int(mujoco.mjtRndFlag.mjRND_SKYBOX)
+    for camera in CAMERAS:
+        own = env._fast._built(model, env._camera_id(camera))[0]
+        own.render(model, data, env._camera_id(camera))
+        out[f"{camera}_sky_left_out"] = float(not own._scene.flags[sky])
+        kept, own.sky = own.sky, None
+        own._scene.flags[sky] = 1
+        try:
+            timed = [own.render_timed(model, data, env._camera_id(camera)) for _ in range(frames)]
+        finally:
+            own.sky = kept
+        out[f"{camera}_draw_sky"] = statistics.median(t["draw"] for t in timed)
     return out
 
 
@@ -266,17 +285,19 @@ def tables(
         f"--generate-episodes {args.generate_episodes}"
         + (f" --sample {args.sample} --seed {args.seed}" if args.sample else "")
         + f"`. CPU: {cpu_model()}. Shares of a fast step: physics, drawing (both cameras, finished), "
-        "reading the pixels back, and the rest (scene updates, the step's own work). The last three columns, "
+        "reading the pixels back, and the rest (scene updates, the step's own work). The last four columns, "
         "each lever alone: the wrist camera's draw as `fast` makes it and with MuJoCo's mirror pass, which "
         "`fast` leaves out for that camera (the same where the scene has no reflective surface; no occlusion "
         "queries either, which are only for cameras without the pass); the wrist's draw without the occlusion "
         "queries that leave out the large still meshes it cannot see (triangles drawn); agentview's draw as "
-        "`fast` makes it and with every mesh at 0.5 mm (the wrist's renderer), triangles drawn.",
+        "`fast` makes it and with every mesh at 0.5 mm (the wrist's renderer), triangles drawn; each camera's draw "
+        "as `fast` makes it and with the sky, which it leaves out where proved covered (*: left out at that state).",
         "",
         "| scene | layout | size | triangles, full → fast (drawn: agentview, wrist) | reflective, lights | LIBERO step ms | "
         "fast step ms | **fast / LIBERO** | physics | draw | read-back | other | wrist draw, with its mirror pass | "
-        "wrist draw, without occlusion queries | agentview draw, with 0.5 mm distant meshes |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "wrist draw, without occlusion queries | agentview draw, with 0.5 mm distant meshes | "
+        "draw with the sky: agentview, wrist |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         step = r["fast_step"]
@@ -293,7 +314,9 @@ def tables(
             f"{r['eye_in_hand_draw'] * 1e3:.1f} → {r['eye_in_hand_draw_unqueried'] * 1e3:.1f} ms "
             f"({r['eye_in_hand_triangles'] / 1000:.0f} k → {r['eye_in_hand_triangles_unqueried'] / 1000:.0f} k) | "
             f"{r['agentview_draw'] * 1e3:.1f} → {r['agentview_draw_fine'] * 1e3:.1f} ms "
-            f"({r['agentview_triangles'] / 1000:.0f} k → {r['agentview_triangles_fine'] / 1000:.0f} k) |"
+            f"({r['agentview_triangles'] / 1000:.0f} k → {r['agentview_triangles_fine'] / 1000:.0f} k) | "
+            + (", ".join(_with_sky(r, c) for c in CAMERAS) if "agentview_draw_sky" in r else "–")
+            + " |"
         )
     lines += [
         "",

@@ -9,9 +9,9 @@ the simulated scene with fewer triangles and nothing else changed (cameras, ligh
 and poses all come from the simulator as it is at that moment).
 
 :func:`fast_renderer` builds that copy: the meshes that cameras see are simplified
-(:mod:`libero_data.sim.meshes`, cached), except those on a camera's own body and below it
-(the gripper under the wrist camera fills a large part of its image at a few centimetres); and
-the wrist camera is drawn without MuJoCo's mirror pass (:func:`.distant.mounted_cameras`).
+(:mod:`libero_data.sim.meshes`, cached), except those on a camera's own body and below it (the
+gripper fills much of the wrist camera's image); the wrist camera is drawn without MuJoCo's
+mirror pass (:func:`.distant.mounted_cameras`), and the sky only where it may show (:mod:`.sky`).
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ from libero_data.sim.meshes import (
 if TYPE_CHECKING:
     from libero_data.sim.hidden import HiddenGeoms
     from libero_data.sim.near import NearDetail
+    from libero_data.sim.sky import SkyCover
 
 #: The largest mean |fast - full| per camera image (0-1 scale) that ``fast`` is held to. Measured
 #: on one scene of each suite at 128 and 256 px: 0.0015-0.0085, always below the error the
@@ -63,13 +64,13 @@ class OffscreenRenderer:
         unmirrored: frozenset[int] = frozenset(),
         detail: NearDetail | None = None,
         hidden: HiddenGeoms | None = None,
+        sky: SkyCover | None = None,
     ) -> None:
         import mujoco
 
         self.size, self.detail = size, detail  # detail: free objects' copies swapped in when near
-        self.hidden = hidden  # large still meshes left out of the unmirrored cameras when hidden
-        # Cameras drawn without MuJoCo's mirror pass (which draws every geom again, mirrored in
-        # the scene's first reflective plane or box, whether or not the reflection shows).
+        self.hidden, self.sky = hidden, sky  # large still meshes hidden from the wrist; the sky
+        # Cameras drawn without MuJoCo's mirror pass (every geom again, in the first mirror).
         self.unmirrored = unmirrored
         # Geoms wholly outside a camera's view cost vertex work and no pixels; unless a light
         # casts shadows (which an unseen geom may throw into view), they are left out.
@@ -137,6 +138,8 @@ class OffscreenRenderer:
         )
         if self.cull:
             _cull(self._scene, model, data, camera_id)
+        if self.sky is not None:  # drawn where it may show
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = self.sky.shows(model, data, self, camera_id)
 
     def render_timed(self, model: Any, data: Any, camera_id: int) -> dict[str, float]:
         """What :meth:`render` spends, in its three parts, each run to completion (seconds):
@@ -289,6 +292,7 @@ def fast_renderer(
     from libero_data.sim.distant import mounted_cameras, shrink_textures
     from libero_data.sim.hidden import HiddenGeoms, large_still_meshes
     from libero_data.sim.near import NearDetail
+    from libero_data.sim.sky import SkyCover
 
     render_model = copy.deepcopy(model)
     for i, tri in faces.items():
@@ -297,8 +301,9 @@ def fast_renderer(
     near = NearDetail(model, render_model, camera_ids, faces, detail) if detail else None
     mounted = mounted_cameras(model, camera_ids)
     hidden = HiddenGeoms(large_still_meshes(render_model)) if mounted else None
+    sky = SkyCover(render_model)
     return OffscreenRenderer(
-        render_model, size, backend, cull=True, unmirrored=mounted, detail=near, hidden=hidden
+        render_model, size, backend, cull=True, unmirrored=mounted, detail=near, hidden=hidden, sky=sky
     )
 
 

@@ -14,6 +14,7 @@ pytestmark = pytest.mark.sim
 
 CAMERAS = ("agentview", "eye_in_hand")
 PUSH = np.array([0.4, -0.3, -0.2, 0.0, 0.0, 0.1, -1.0])
+SKYBOX = 4  # mjtRndFlag.mjRND_SKYBOX
 
 
 def _difference(a: np.ndarray, b: np.ndarray) -> float:
@@ -67,7 +68,8 @@ def test_what_a_study_room_leaves_out_changes_no_pixel() -> None:
     # bounding spheres of 1-1.1 m that reach into the wrist camera's view from beside or behind
     # the robot; their boxes do not (with spheres alone the wrist drew 63.9 k triangles at the
     # first state). (2) Occlusion queries: the pedestal is hidden from the wrist camera and left
-    # out; the desk caddy on the table shows, so the frame is drawn again with it.
+    # out; the desk caddy on the table shows, so the frame is drawn again with it. (3) The sky:
+    # the room covers agentview's view, and the floor the wrist's, so it is left out of both.
     task = get_task("libero_90/75")
     with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
@@ -81,22 +83,28 @@ def test_what_a_study_room_leaves_out_changes_no_pixel() -> None:
         renderer.hidden = None
         assert renderer.render_timed(model, data, wrist)["triangles"] < 55_000
         renderer.hidden = hidden
-        fewer, shown = 0, 0
+        fewer, shown, skyless = 0, 0, 0
+        skies = {key: r.sky for key, r in renderers.items()}
         for _ in range(4):
-            images = {c: env.render(c) for c in CAMERAS}
+            images = {}
+            for camera in CAMERAS:
+                images[camera] = env.render(camera)
+                skyless += not env._fast._built(model, env._camera_id(camera))[0]._scene.flags[SKYBOX]
             shown += bool(hidden._visible)
             left = renderer.render_timed(model, data, wrist)["triangles"]
             for r in renderers.values():
-                r.cull, r.hidden = False, None
+                r.cull, r.hidden, r.sky = False, None, None
+                r._scene.flags[SKYBOX] = 1
             for camera in CAMERAS:
                 assert np.array_equal(env.render(camera), images[camera]), camera
-            for r in renderers.values():
-                r.cull = True
+            for key, r in renderers.items():
+                r.cull, r.sky = True, skies[key]
             fewer += left < renderer.render_timed(model, data, wrist)["triangles"]
             renderer.hidden = hidden
             for _ in range(12):
                 env.advance(PUSH)
         assert fewer == 4  # the pedestal was left out at every state
+        assert skyless == 8  # and the sky, from both cameras
         assert shown > 0  # and a mesh in view was found visible, so drawn
 
 
