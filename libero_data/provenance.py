@@ -34,6 +34,7 @@ NOT_EPISODE_CODE = (
     "sim/distant.py",
     "sim/near.py",
     "sim/hidden.py",
+    "sim/sky.py",
 )
 
 
