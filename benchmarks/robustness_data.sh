@@ -95,6 +95,14 @@ data() {  # name suite index: makes what is missing (generation resumes per epis
     --episodes-per-task 20 "${common[@]}" --out "$work/$name-variants"
 }
 
+trained() {  # name option: A's and B's runs of the task, restored from their committed folders if need be
+  local name=$1 option=$2 arm
+  for arm in single mixed; do
+    restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
+      || { echo "$arm-$name is neither in $work nor committed: run without $option first" >&2; exit 2; }
+  done
+}
+
 sweep() {  # run suite/task folder [sweep options...]: into $work/sweeps/<folder>, then committed
   local name=$1 suite_task=$2 folder=$3
   shift 3
@@ -131,9 +139,8 @@ for seed in ${DRAWS:-}; do
     [[ -f $results/sweeps/single-$name-draw$seed/robustness.json && -f $results/sweeps/mixed-$name-draw$seed/robustness.json ]] \
       && { echo "$name, draw $seed: both sweeps already in $results, skipped"; continue; }
     data "$name" "$suite" "$index"  # the held-out starts avoid the training data's
+    trained "$name" DRAWS
     for arm in single mixed; do
-      restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
-        || { echo "$arm-$name is neither in $work nor committed: run without DRAWS first" >&2; exit 2; }
       sweep "$arm-$name" "$suite/$index" "$arm-$name-draw$seed" --levels 3 --kinds "$kinds" --seed "$seed"
     done
   done
@@ -145,10 +152,7 @@ if [[ -n ${LEVERS:-} ]]; then
     all=1
     for lever in "${levers[@]}"; do [[ -f $results/sweeps/$lever-$name/robustness.json ]] || all=0; done
     ((all)) && { echo "$name: the levers' sweeps already in $results, skipped"; continue; }
-    for arm in single mixed; do
-      restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
-        || { echo "$arm-$name is neither in $work nor committed: run without LEVERS first" >&2; exit 2; }
-    done
+    trained "$name" LEVERS
     data "$name" "$suite" "$index"
     pids=()
     train "single-aug-$name" "$work/$name-64" "$index" "" --set augment=true &
@@ -170,10 +174,7 @@ if [[ -n ${MORE:-} ]]; then
     IFS=: read -r suite index <<<"${suites[$name]}"
     [[ -f $results/sweeps/mixed-more-$name/robustness.json ]] \
       && { echo "$name: the mixed-more sweep already in $results, skipped"; continue; }
-    for arm in single mixed; do
-      restore "$arm-$name" || [[ -d $work/runs/$arm-$name ]] \
-        || { echo "$arm-$name is neither in $work nor committed: run without MORE first" >&2; exit 2; }
-    done
+    trained "$name" MORE
     data "$name" "$suite" "$index"
     more=()
     for seed in 1 2; do
