@@ -119,10 +119,7 @@ def _render_without(scene: Any, context: Any, viewport: Any, rows: list[int]) ->
 
 def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:
     """The scene rows among ``rows`` whose enlarged bounding box has a sample passing the depth
-    test against the frame just drawn (matrices and depth test as ``mjr_render`` left them): one
-    occlusion query each, all issued before any result is read."""
-    from OpenGL import GL
-
+    test against the frame just drawn (:func:`box_samples`)."""
     from libero_data.sim.meshes import box_corners
 
     geoms = [scene.geoms[k] for k in rows]
@@ -139,7 +136,20 @@ def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:
     asked = [i for i, c in enumerate(cut) if not c]
     if not asked:
         return shown
-    queries = np.ravel(GL.glGenQueries(len(asked))).astype(np.uint32)
+    for i, passed in zip(asked, box_samples(corners[asked]), strict=True):
+        if passed > 0:
+            shown.add(rows[i])
+    return shown
+
+
+def box_samples(boxes: np.ndarray) -> list[int]:
+    """How many samples of each box (``boxes``: (n, 8, 3) corners, as :func:`.meshes.box_corners`
+    orders them) pass the depth test against the frame just drawn (matrices and depth test as
+    ``mjr_render`` left them), colour and depth writes off: one occlusion query each, all issued
+    before any result is read."""
+    from OpenGL import GL
+
+    queries = np.ravel(GL.glGenQueries(len(boxes))).astype(np.uint32)
     GL.glPushAttrib(GL.GL_ALL_ATTRIB_BITS)
     try:
         GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
@@ -152,18 +162,16 @@ def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:
             GL.GL_STENCIL_TEST,
         ):
             GL.glDisable(capability)
-        for query, i in zip(queries, asked, strict=True):
+        for query, corners in zip(queries, boxes, strict=True):
             GL.glBeginQuery(GL.GL_SAMPLES_PASSED, int(query))
             GL.glBegin(GL.GL_QUADS)
             for face in _FACES:
                 for corner in face:
-                    GL.glVertex3d(*corners[i, corner])
+                    GL.glVertex3d(*corners[corner])
             GL.glEnd()
             GL.glEndQuery(GL.GL_SAMPLES_PASSED)
     finally:
         GL.glPopAttrib()
-    for query, i in zip(queries, asked, strict=True):
-        if int(GL.glGetQueryObjectuiv(int(query), GL.GL_QUERY_RESULT)) > 0:
-            shown.add(rows[i])
+    passed = [int(GL.glGetQueryObjectuiv(int(query), GL.GL_QUERY_RESULT)) for query in queries]
     GL.glDeleteQueries(len(queries), queries)
-    return shown
+    return passed

@@ -32,8 +32,6 @@ import numpy as np
 #: plane (the sky cylinder stands at 0.7 of it).
 SKY_MARGIN = 0.5
 
-_FACES = ((0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5))
-
 
 class SkyCover:
     """Per camera and frame, whether the sky must be drawn (:meth:`shows`)."""
@@ -142,7 +140,9 @@ def _still_covers(still: np.ndarray, scene: Any, context: Any, viewport: Any) ->
     """Draw only the still geoms of ``scene``, without the sky, and ask whether any sample
     of a box around the camera, between them and the sky, passes the depth test."""
     import mujoco
-    from OpenGL import GL
+
+    from libero_data.sim.hidden import box_samples
+    from libero_data.sim.meshes import box_corners
 
     kept = set(int(g) for g in still)
     types = [int(scene.geoms[k].type) for k in range(scene.ngeom)]
@@ -158,32 +158,9 @@ def _still_covers(still: np.ndarray, scene: Any, context: Any, viewport: Any) ->
         # Half-size 0.3 of the sky's radius: every corner (0.52 of it away) is nearer than the
         # sky's faceted cylinder along every ray, and far beyond any LIBERO scene.
         half = 0.3 * 0.7 * camera.frustum_far
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
-        box = np.asarray(camera.pos, dtype=np.float64) + half * signs
-        query = int(np.ravel(GL.glGenQueries(1))[0])
-        GL.glPushAttrib(GL.GL_ALL_ATTRIB_BITS)
-        try:
-            GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
-            GL.glDepthMask(GL.GL_FALSE)
-            for capability in (
-                GL.GL_CULL_FACE,
-                GL.GL_TEXTURE_2D,
-                GL.GL_LIGHTING,
-                GL.GL_ALPHA_TEST,
-                GL.GL_STENCIL_TEST,
-            ):
-                GL.glDisable(capability)
-            GL.glBeginQuery(GL.GL_SAMPLES_PASSED, query)
-            GL.glBegin(GL.GL_QUADS)
-            for face in _FACES:
-                for corner in face:
-                    GL.glVertex3d(*box[corner])
-            GL.glEnd()
-            GL.glEndQuery(GL.GL_SAMPLES_PASSED)
-        finally:
-            GL.glPopAttrib()
-        passed = int(GL.glGetQueryObjectuiv(query, GL.GL_QUERY_RESULT))
-        GL.glDeleteQueries(1, [query])
+        cube = np.array([[0.0, 0.0, 0.0, half, half, half]])
+        box = box_corners(np.asarray(camera.pos, dtype=np.float64)[None], np.eye(3)[None], cube)
+        passed = box_samples(box)[0]
     finally:
         for k, kind in enumerate(types):
             scene.geoms[k].type = kind
