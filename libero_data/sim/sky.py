@@ -82,6 +82,8 @@ class SkyCover:
                 self._proved[camera_id] = (key, covered)
             if self._proved[camera_id][1]:
                 return False
+        if model.cam_projection[camera_id] != 0 or np.any(model.cam_sensorsize[camera_id] > 0):
+            return True  # a view not set by its vertical angle alone: the rays below do not hold
         if self._faces is None or self._faces[0] != still:
             self._faces = (still, self._opaque_faces(model, data))
         return not _face_covers(model, data, camera_id, *self._faces[1])

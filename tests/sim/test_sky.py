@@ -28,6 +28,7 @@ SCENE = """
       <freejoint/>
       <geom group="1" type="sphere" size="0.02" pos="0 0 0.1" rgba="0.2 0.8 0.2 1"/>
       <camera name="wrist" pos="0 0 0" xyaxes="1 0 0 0 1 0" fovy="60"/>
+      <camera name="flat" pos="0 0 0" xyaxes="1 0 0 0 1 0" projection="orthographic" fovy="0.3"/>
     </body>
   </worldbody>
 </mujoco>
@@ -82,6 +83,9 @@ def test_the_sky_is_left_out_only_where_it_cannot_show(scene) -> None:
     # meets every corner ray (the small floor would not).
     drawn, image, reference = _draw(model, data, fast, full, "wrist")
     assert not drawn and np.array_equal(image, reference)
+    # An orthographic camera there: its rays are not the ones the proof draws, so the sky is drawn.
+    drawn, image, reference = _draw(model, data, fast, full, "flat")
+    assert drawn and np.array_equal(image, reference)
     # The same camera turned to look out sideways: the sky shows.
     data.qpos[3:7] = [np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0]  # 90 degrees about x
     mujoco.mj_forward(model, data)
