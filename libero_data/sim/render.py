@@ -72,9 +72,9 @@ class OffscreenRenderer:
         self.hidden, self.sky = hidden, sky  # large still meshes hidden from the wrist; the sky
         # Cameras drawn without MuJoCo's mirror pass (every geom again, in the first mirror).
         self.unmirrored = unmirrored
-        # Geoms wholly outside a camera's view cost vertex work and no pixels; unless a light
-        # casts shadows (which an unseen geom may throw into view), they are left out.
-        self.cull = cull and not bool(np.any(model.light_castshadow))
+        # Out-of-view geoms cost vertex work, no pixels: left out, unless shadows or views _cull can't bound.
+        odd = np.any(model.light_castshadow) or np.any(model.cam_projection) or np.any(model.cam_sensorsize)
+        self.cull = cull and not bool(odd)
         self._ctx = _gl_context(backend, size)
         self._ctx.make_current()
         # The offscreen buffer takes the model's offwidth/offheight; an image-sized buffer

@@ -1,7 +1,8 @@
 """``fast`` leaves the skybox out only where it is proved to show in no sample (libero_data.sim.sky):
 on a small scene whose cameras see the sky from some poses and not from others, every image is
 the one drawn with the sky, and the sky is left out where a camera looks only at the floor or
-a table top."""
+a table top. And culling, which bounds a view by its vertical angle, is off for a camera whose
+view is not set by it (an orthographic one)."""
 
 from __future__ import annotations
 
@@ -19,9 +20,10 @@ SCENE = """
     <texture name="sky" type="skybox" builtin="gradient" rgb1="0.3 0.5 0.8" rgb2="0.9 0.9 1" width="32" height="192"/>
   </asset>
   <worldbody>
-    <light pos="0 0 4" dir="0 0 -1"/>
+    <light pos="0 0 4" dir="0 0 -1" castshadow="false"/>
     <geom name="floor" group="1" type="plane" size="0.2 0.2 0.05" rgba="0.5 0.5 0.5 1"/>
     <geom name="table" group="1" type="box" pos="0 0 0.4" size="1 1 0.4" rgba="0.6 0.4 0.3 1"/>
+    <geom name="cup" group="1" type="box" pos="0.1 0 0.82" size="0.02 0.02 0.02" rgba="0.9 0.1 0.1 1"/>
     <camera name="above" pos="0 0 2" xyaxes="1 0 0 0 1 0" fovy="45"/>
     <camera name="horizon" pos="0 0 1.2" xyaxes="0 -1 0 0 0 1" fovy="45"/>
     <body name="hand" pos="0 0 1.2">
@@ -109,3 +111,21 @@ def test_a_fixed_camera_moved_is_proved_again(scene) -> None:
     mujoco.mj_forward(model, data)
     drawn, image, reference = _draw(model, data, fast, full, "above")
     assert drawn and np.array_equal(image, reference)
+
+
+def test_culling_is_off_where_a_view_is_not_set_by_its_vertical_angle(scene) -> None:
+    # The culling bounds a perspective view by its vertical angle; the orthographic camera's 0.3 is
+    # a width in metres, and the cup 0.1 m off its axis would be culled as outside a 0.3-degree view.
+    import mujoco
+
+    from libero_data.sim.gl import select_backend
+    from libero_data.sim.render import OffscreenRenderer
+
+    model, data, _, full = scene
+    culled = OffscreenRenderer(model, 64, select_backend(), cull=True)
+    try:
+        assert not culled.cull
+        flat = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "flat")
+        assert np.array_equal(culled.render(model, data, flat), full.render(model, data, flat))
+    finally:
+        culled.close()
