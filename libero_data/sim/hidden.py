@@ -45,11 +45,17 @@ def large_still_meshes(model: Any) -> set[int]:
 
     from libero_data.sim.meshes import drawn_geoms
 
-    body = model.geom_bodyid
-    still = (model.body_weldid[body] == 0) & (model.body_mocapid[model.body_rootid[body]] < 0)
+    still = unmoving_geoms(model)
     meshes = drawn_geoms(model) & (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
     large = model.mesh_facenum[np.maximum(model.geom_dataid, 0)] >= MIN_TRIANGLES
     return {int(g) for g in np.flatnonzero(still & meshes & large)}
+
+
+def unmoving_geoms(model: Any) -> np.ndarray:
+    """Per geom: whether it does not move within an episode (on a body welded to the world, not
+    under a mocap body: the world body's geoms, and fixtures, which LIBERO places at each reset)."""
+    body = model.geom_bodyid
+    return (model.body_weldid[body] == 0) & (model.body_mocapid[model.body_rootid[body]] < 0)
 
 
 class HiddenGeoms:
@@ -70,7 +76,7 @@ class HiddenGeoms:
         if not rows:
             mujoco.mjr_render(viewport, scene, context)
             return []
-        _render_without(scene, context, viewport, rows)
+        render_without(scene, context, viewport, rows)
         shown = _showing(model, scene, rows)
         for k in rows:
             key = (camera_id, int(scene.geoms[k].objid))
@@ -83,7 +89,7 @@ class HiddenGeoms:
                 self._visible.pop(key, None)
         hidden = [k for k in rows if k not in shown]
         if shown:  # drawn again with what showed, still without what was proved hidden
-            _render_without(scene, context, viewport, hidden)
+            render_without(scene, context, viewport, hidden)
         return hidden
 
     def _due(self, scene: Any, camera_id: int) -> list[int]:
@@ -106,15 +112,18 @@ class HiddenGeoms:
         return rows
 
 
-def _render_without(scene: Any, context: Any, viewport: Any, rows: list[int]) -> None:
-    """``mjr_render`` the scene without its mesh geoms ``rows`` (left in the scene as they were)."""
+def render_without(scene: Any, context: Any, viewport: Any, rows: list[int]) -> None:
+    """``mjr_render`` the scene without its geoms ``rows`` (left in the scene as they were)."""
     import mujoco
 
+    kinds = [int(scene.geoms[k].type) for k in rows]
     for k in rows:
         scene.geoms[k].type = int(mujoco.mjtGeom.mjGEOM_NONE)
-    mujoco.mjr_render(viewport, scene, context)
-    for k in rows:
-        scene.geoms[k].type = int(mujoco.mjtGeom.mjGEOM_MESH)
+    try:
+        mujoco.mjr_render(viewport, scene, context)
+    finally:
+        for k, kind in zip(rows, kinds, strict=True):
+            scene.geoms[k].type = kind
 
 
 def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:

@@ -39,12 +39,10 @@ class SkyCover:
     def __init__(self, model: Any) -> None:
         import mujoco
 
+        from libero_data.sim.hidden import unmoving_geoms
         from libero_data.sim.meshes import DRAWN_GROUPS
 
-        body = model.geom_bodyid
-        # What does not move within an episode: welded to the world, not under a mocap body (the
-        # world body's geoms, and fixtures, which LIBERO places anew at each reset).
-        still = (model.body_weldid[body] == 0) & (model.body_mocapid[model.body_rootid[body]] < 0)
+        still = unmoving_geoms(model)
         self.still = np.flatnonzero(still)
         plane, box = int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX)
         drawn = still & np.isin(model.geom_group, DRAWN_GROUPS)
@@ -143,19 +141,19 @@ def _still_covers(still: np.ndarray, scene: Any, context: Any, viewport: Any) ->
     of a box around the camera, between them and the sky, passes the depth test."""
     import mujoco
 
-    from libero_data.sim.hidden import box_samples
+    from libero_data.sim.hidden import box_samples, render_without
     from libero_data.sim.meshes import box_corners
 
     kept = set(int(g) for g in still)
-    types = [int(scene.geoms[k].type) for k in range(scene.ngeom)]
+    rows = [
+        k
+        for k in range(scene.ngeom)
+        if not (scene.geoms[k].objtype == mujoco.mjtObj.mjOBJ_GEOM and int(scene.geoms[k].objid) in kept)
+    ]
     sky = int(scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX])
-    for k in range(scene.ngeom):
-        g = scene.geoms[k]
-        if not (g.objtype == mujoco.mjtObj.mjOBJ_GEOM and int(g.objid) in kept):
-            g.type = int(mujoco.mjtGeom.mjGEOM_NONE)
     scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = 0
     try:
-        mujoco.mjr_render(viewport, scene, context)
+        render_without(scene, context, viewport, rows)
         camera = scene.camera[0]
         # Half-size 0.3 of the sky's radius: every corner (0.52 of it away) is nearer than the
         # sky's faceted cylinder along every ray, and far beyond any LIBERO scene.
@@ -164,7 +162,5 @@ def _still_covers(still: np.ndarray, scene: Any, context: Any, viewport: Any) ->
         box = box_corners(np.asarray(camera.pos, dtype=np.float64)[None], np.eye(3)[None], cube)
         passed = box_samples(box)[0]
     finally:
-        for k, kind in enumerate(types):
-            scene.geoms[k].type = kind
         scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = sky
     return passed == 0
