@@ -160,3 +160,41 @@ def test_bad_mixes_are_refused(tiny_dataset: Path, variants: Path) -> None:
 
     with pytest.raises(InputError, match="no episodes of turn_on_the_stove or of their variants"):
         plan_run(run_request(tiny_dataset, tasks=("7",), mix=(other,)))
+
+
+def test_draws_with_the_same_variant_names_are_all_mixed(
+    tiny_dataset: Path, variants: Path, tmp_path: Path
+) -> None:
+    """More draws of the same variants (``MORE=1`` in benchmarks/robustness_data.sh): datasets whose
+    tasks have the same names each give their episodes, at the run's one weight, and the held-out
+    starts avoid every draw's starts."""
+    from libero_bench.runs.folder import RunFolder
+    from libero_bench.train.fitting import task_loader
+    from libero_bench.train.observer import RunObserver
+    from libero_bench.train.plan import plan_run
+    from libero_bench.train.rounds import EvaluationRounds
+
+    second = variants.parent / "second-draw"
+    shutil.copytree(variants, second)
+    path = second / "meta" / "libero_episodes.jsonl"
+    rows = [json.loads(line) for line in path.read_text().splitlines()]
+    for row in rows:  # began where the second seed of its source task's held-out stream does
+        row["reset_seed"] = heldout_seed(row["task_name"].split("__")[0], 1)
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+    one = _plan(tiny_dataset, variants, 0.5)
+    both = plan_run(run_request(tiny_dataset, tasks=("0", "7"), mix=(variants, second), mix_weight=0.5))
+    for position, name in enumerate((DRAWER, STOVE)):
+        chosen = both.mix.episodes[position]
+        assert {e.dataset for e in chosen} == {0, 1}
+        assert len(chosen) == 2 * len(one.mix.episodes[position])
+        assert {heldout_seed(name, 0), heldout_seed(name, 1)} <= both.training_seeds(position)
+        heldout = EvaluationRounds(both, RunFolder(tmp_path), RunObserver()).eval_tasks()[position].heldout
+        assert heldout[0] == heldout_seed(name, 2) and not set(heldout) & both.training_seeds(position)
+    data = task_loader(both, [0, 1], seed=3, device=torch.device("cpu")).dataset
+    single = task_loader(one, [0, 1], seed=3, device=torch.device("cpu")).dataset
+    assert isinstance(data, MixedWindows) and isinstance(single, MixedWindows)
+    assert data.mixed_len == 2 * single.mixed_len  # every draw's windows can be drawn
+    assert data.epoch_len() == single.epoch_len() and data.mixed_count() == single.mixed_count()
+    drawn = [i for i in data.epoch_indices(0) if data.is_mixed(i)]
+    assert min(drawn) - len(data.base) < single.mixed_len <= max(drawn) - len(data.base)  # from both
