@@ -184,6 +184,7 @@ def test_draws_with_the_same_variant_names_are_all_mixed(
 
     one = _plan(tiny_dataset, variants, 0.5)
     both = plan_run(run_request(tiny_dataset, tasks=("0", "7"), mix=(variants, second), mix_weight=0.5))
+    assert one.mix is not None and both.mix is not None
     for position, name in enumerate((DRAWER, STOVE)):
         chosen = both.mix.episodes[position]
         assert {e.dataset for e in chosen} == {0, 1}
