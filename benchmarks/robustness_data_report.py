@@ -221,6 +221,8 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
                 [sweeps / f"single-aug-{task}" for task in chosen],
                 [sweeps / f"mixed-aug-{task}" for task in chosen],
             )
+            if len(chosen) == 1:  # per kind, as each lever's comparison with A
+                write_comparison(compared, results / chosen[0] / "levers" / "mixed-aug-vs-single-aug")
             p_value = compared["grid"][TRAINED[0]]["0"]["p_value"]
             lines.append(f"| {label} | {_unperturbed(compared)} (p={p_value:.2g}) | {_at3(compared)} |")
     return [*lines, ""]

@@ -331,6 +331,13 @@ def drawn_geoms(model: Any) -> np.ndarray:
 _SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
 
 
+def fovy_views(model: Any) -> np.ndarray:
+    """Per camera: whether its view is a perspective set by its vertical angle ``cam_fovy`` alone
+    (not orthographic, where ``cam_fovy`` is a width in metres, and no sensor size), the view that
+    culling and the sky's corner rays bound."""
+    return (model.cam_projection == 0) & ~np.any(model.cam_sensorsize > 0, axis=-1)
+
+
 def box_corners(pos: np.ndarray, mat: np.ndarray, aabb: np.ndarray, margin: float = 0.0) -> np.ndarray:
     """The world corners ``(n, 8, 3)`` of geoms' bounding boxes, each enlarged by ``margin``:
     ``pos`` ``(n, 3)`` and ``mat`` ``(n, 3, 3)`` the geoms' frames, ``aabb`` ``(n, 6)`` MuJoCo's

@@ -37,6 +37,7 @@ from libero_data.sim.meshes import (
     camera_meshes,
     drawn_geoms,
     drawn_meshes,
+    fovy_views,
 )
 
 if TYPE_CHECKING:
@@ -73,8 +74,7 @@ class OffscreenRenderer:
         # Cameras drawn without MuJoCo's mirror pass (every geom again, in the first mirror).
         self.unmirrored = unmirrored
         # Out-of-view geoms cost vertex work, no pixels: left out, unless shadows or views _cull can't bound.
-        odd = np.any(model.light_castshadow) or np.any(model.cam_projection) or np.any(model.cam_sensorsize)
-        self.cull = cull and not bool(odd)
+        self.cull = cull and bool(np.all(fovy_views(model))) and not np.any(model.light_castshadow)
         self._ctx = _gl_context(backend, size)
         self._ctx.make_current()
         # The offscreen buffer takes the model's offwidth/offheight; an image-sized buffer

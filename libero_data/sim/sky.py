@@ -40,10 +40,11 @@ class SkyCover:
         import mujoco
 
         from libero_data.sim.hidden import unmoving_geoms
-        from libero_data.sim.meshes import DRAWN_GROUPS
+        from libero_data.sim.meshes import DRAWN_GROUPS, fovy_views
 
         still = unmoving_geoms(model)
         self.still = np.flatnonzero(still)
+        self.fovy = fovy_views(model)  # per camera: a view the corner rays below bound
         plane, box = int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX)
         drawn = still & np.isin(model.geom_group, DRAWN_GROUPS)
         # The faces a camera may look at: a finite plane's front, each of a box's six.
@@ -80,7 +81,7 @@ class SkyCover:
                 self._proved[camera_id] = (key, covered)
             if self._proved[camera_id][1]:
                 return False
-        if model.cam_projection[camera_id] != 0 or np.any(model.cam_sensorsize[camera_id] > 0):
+        if not self.fovy[camera_id]:
             return True  # a view not set by its vertical angle alone: the rays below do not hold
         if self._faces is None or self._faces[0] != still:
             self._faces = (still, self._opaque_faces(model, data))

@@ -19,7 +19,7 @@ import pytest
 import torch
 from bench_helpers import Succeeds, run_request
 
-from libero_bench.data.mixing import MixedWindows, MixEpisode, mixed_seeds
+from libero_bench.data.mixing import VARIANT_SEPARATOR, MixedWindows, MixEpisode, mixed_seeds
 from libero_data.errors import InputError
 from libero_data.seeding import heldout_seed, heldout_starts, loader_epoch_seed
 
@@ -179,7 +179,7 @@ def test_draws_with_the_same_variant_names_are_all_mixed(
     path = second / "meta" / "libero_episodes.jsonl"
     rows = [json.loads(line) for line in path.read_text().splitlines()]
     for row in rows:  # began where the second seed of its source task's held-out stream does
-        row["reset_seed"] = heldout_seed(row["task_name"].split("__")[0], 1)
+        row["reset_seed"] = heldout_seed(row["task_name"].split(VARIANT_SEPARATOR)[0], 1)
     path.write_text("".join(json.dumps(r) + "\n" for r in rows))
 
     one = _plan(tiny_dataset, variants, 0.5)

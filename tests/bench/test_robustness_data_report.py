@@ -83,3 +83,5 @@ def test_levers_are_compared_with_both_runs_of_their_task(tmp_path: Path) -> Non
     text = summary(tmp_path)
     assert "| object-0 | 10/10 → 6/10 (p=0.12) | +10% [" in text
     assert (tmp_path / "object-0" / "levers" / "mixed-long" / "compare.md").is_file()
+    # the mixed-aug against single-aug row's per-kind comparison
+    assert (tmp_path / "object-0" / "levers" / "mixed-aug-vs-single-aug" / "compare.md").is_file()
