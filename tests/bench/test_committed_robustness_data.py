@@ -17,14 +17,27 @@ from typing import Any
 
 import pytest
 
-from benchmarks.robustness_data_report import TASKS, summary
+from benchmarks.robustness_data_report import LEVERS, TASKS, TRAINED, summary
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "robustness_data"
 SWEPT = [t for t in TASKS if (RESULTS / "sweeps" / f"mixed-{t}" / "robustness.json").is_file()]
+LEVER_RUNS = [
+    (lever, task)
+    for lever in LEVERS
+    for task in SWEPT
+    if (RESULTS / "sweeps" / f"{lever}-{task}" / "robustness.json").is_file()
+]
+# variant episodes mixed into each lever's run (three draws of 300 for mixed-more)
+LEVER_MIX = {"single-aug": [], "mixed-aug": [300], "mixed-long": [300], "mixed-more": [300, 300, 300]}
 
 
 def _json(*parts: str) -> Any:
     return json.loads(RESULTS.joinpath(*parts).read_text())
+
+
+def _batches(run: str) -> list[int]:
+    lines = (json.loads(line) for line in (RESULTS / "runs" / run / "timings.jsonl").open())
+    return [line["batches"] for line in lines if line["what"] == "epoch"]
 
 
 def test_at_least_one_task_is_committed() -> None:
@@ -43,14 +56,7 @@ def test_the_two_runs_differ_only_in_the_variant_data(task: str) -> None:
             # the held-out starts avoid every training episode's start, variants included
             assert starts["demos_from_sampler"] == demos and starts["demos_from_stored_inits"] == 0
             assert starts["stored_eval_starts_trained_on"] == []
-    steps = [
-        [
-            json.loads(line)["batches"]
-            for line in (RESULTS / "runs" / f"{arm}-{task}" / "timings.jsonl").open()
-            if json.loads(line)["what"] == "epoch"
-        ]
-        for arm in ("single", "mixed")
-    ]
+    steps = [_batches(f"{arm}-{task}") for arm in ("single", "mixed")]
     # the same budget: as many batches in every epoch (epoch 0 only measures the loss, untrained)
     assert steps[0] == steps[1] and len(steps[0]) == single["preset"]["epochs"] + 1
 
@@ -61,6 +67,30 @@ def test_both_sweeps_start_from_the_same_heldout_starts(task: str) -> None:
     assert single["heldout_seeds"] == mixed["heldout_seeds"]
     assert single["request"] == mixed["request"]
     assert single["request"]["levels"] == [1, 3, 5] and single["request"]["rollouts"] == 10
+
+
+def test_levers_are_committed() -> None:
+    assert ("mixed-more", "object-0") in LEVER_RUNS and ("single-aug", "spatial-8") in LEVER_RUNS
+
+
+@pytest.mark.parametrize(("lever", "task"), LEVER_RUNS)
+def test_each_lever_run_kept_the_budget_and_the_heldout_starts(lever: str, task: str) -> None:
+    """A lever's run is paired with A's and B's cells: the same gradient steps per epoch, held-out
+    starts that avoided every episode it trained on (every variant draw included), and a level-3
+    sweep of the trained kinds from A's held-out starts."""
+    config = _json("runs", f"{lever}-{task}", "config.json")
+    mixed = [dataset["episodes"] for dataset in config.get("mix", {}).get("datasets", [])]
+    assert mixed == LEVER_MIX[lever]
+    assert not mixed or config["mix"]["weight"] == 0.5
+    for starts in config["evaluation"]["training_starts"].values():
+        assert starts["demos_from_sampler"] == 100 + sum(mixed) and starts["demos_from_stored_inits"] == 0
+        assert starts["stored_eval_starts_trained_on"] == []
+    assert _batches(f"{lever}-{task}") == _batches(f"single-{task}")
+    swept, a = (_json("sweeps", f"{run}-{task}", "robustness.json") for run in (lever, "single"))
+    assert swept["heldout_seeds"] == a["heldout_seeds"]
+    assert swept["request"]["levels"] == [3] and sorted(swept["request"]["kinds"]) == sorted(TRAINED)
+    same = {"levels": None, "kinds": None}  # all else as A's sweep: rollouts, seed, horizon, rendering
+    assert swept["request"] | same == a["request"] | same
 
 
 def test_the_summary_is_what_the_report_makes_and_readme_states_it(tmp_path: Path) -> None:
