@@ -30,6 +30,11 @@ LEVERS = {
     "mixed-long": "B trained 16 epochs more from its final weights (twice the gradient steps)",
     "mixed-more": "B with three draws of every variant (900 variant demonstrations instead of 300)",
 }
+# Two levers start for start (run, against, heading), each written to <task>/levers/<run>-vs-<against>/.
+LEVER_PAIRS = (
+    ("mixed-aug", "single-aug", "The variant data where both runs are augmented"),
+    ("mixed-more", "single-aug", "Three draws of the variant data, unaugmented, against augmentation alone"),
+)
 
 
 def _line(what: str, figure: dict[str, Any]) -> str:
@@ -205,24 +210,26 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
             a, x, b = ([sweeps / f"{arm}-{task}" for task in chosen] for arm in ("single", lever, "mixed"))
             out = results / chosen[0] / "levers" / lever if len(chosen) == 1 else None
             lines.append(_lever_row(f"{lever}, {label}", a, x, b, out))
-    both = [task for task in found["single-aug"] if task in found["mixed-aug"]]
-    if both:
+    for run, against, heading in LEVER_PAIRS:
+        both = [task for task in found[against] if task in found[run]]
+        if not both:
+            continue
         lines += [
             "",
-            "The variant data where both runs are augmented (mixed-aug against single-aug, start for start):",
+            f"{heading} ({run} against {against}, start for start):",
             "",
-            "| task | unperturbed | mixed-aug − single-aug, trained kinds, level 3 |",
+            f"| task | unperturbed | {run} − {against}, trained kinds, level 3 |",
             "|---|---:|---:|",
         ]
         for label, chosen in [(task, [task]) for task in both] + (
             [("pooled", both)] if len(both) > 1 else []
         ):
             compared = compare_sweeps(
-                [sweeps / f"single-aug-{task}" for task in chosen],
-                [sweeps / f"mixed-aug-{task}" for task in chosen],
+                [sweeps / f"{against}-{task}" for task in chosen],
+                [sweeps / f"{run}-{task}" for task in chosen],
             )
             if len(chosen) == 1:  # per kind, as each lever's comparison with A
-                write_comparison(compared, results / chosen[0] / "levers" / "mixed-aug-vs-single-aug")
+                write_comparison(compared, results / chosen[0] / "levers" / f"{run}-vs-{against}")
             p_value = compared["grid"][TRAINED[0]]["0"]["p_value"]
             lines.append(f"| {label} | {_unperturbed(compared)} (p={p_value:.2g}) | {_at3(compared)} |")
     return [*lines, ""]

@@ -85,3 +85,9 @@ def test_levers_are_compared_with_both_runs_of_their_task(tmp_path: Path) -> Non
     assert (tmp_path / "object-0" / "levers" / "mixed-long" / "compare.md").is_file()
     # the mixed-aug against single-aug row's per-kind comparison
     assert (tmp_path / "object-0" / "levers" / "mixed-aug-vs-single-aug" / "compare.md").is_file()
+    assert "mixed-more against single-aug" not in text
+    _sweep(sweeps / "mixed-more-object-0", wins=7, perturbed_wins=8, kinds=TRAINED, levels=(3,))
+    text = summary(tmp_path)
+    assert "| mixed-more − single-aug, trained kinds, level 3 |" in text
+    assert "| object-0 | 10/10 → 7/10 (p=0.25) | +40% [" in text  # 4/10 -> 8/10 in every trained kind
+    assert (tmp_path / "object-0" / "levers" / "mixed-more-vs-single-aug" / "compare.md").is_file()
