@@ -187,7 +187,8 @@ def _lever_row(what: str, a: list[Path], x: list[Path], b: list[Path], out: Path
 
 def _levers(results: Path, swept: list[str]) -> list[str]:
     """Lines for the levers swept (``LEVERS=1``): each against A and B of its task, per task and pooled
-    over the tasks that have it, and its per-kind comparison with A in ``<task>/levers/<lever>/``."""
+    over the tasks that have it, and its per-kind comparison with A in ``<task>/levers/<lever>/`` (pooled:
+    ``pooled/levers/<lever>/``)."""
     sweeps = results / "sweeps"
     found = {
         lever: [task for task in swept if (sweeps / f"{lever}-{task}" / "robustness.json").is_file()]
@@ -208,7 +209,7 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
         groups += [(f"{' and '.join(tasks)} pooled", tasks)] if len(tasks) > 1 else []
         for label, chosen in groups:
             a, x, b = ([sweeps / f"{arm}-{task}" for task in chosen] for arm in ("single", lever, "mixed"))
-            out = results / chosen[0] / "levers" / lever if len(chosen) == 1 else None
+            out = results / (chosen[0] if len(chosen) == 1 else "pooled") / "levers" / lever
             lines.append(_lever_row(f"{lever}, {label}", a, x, b, out))
     for run, against, heading in LEVER_PAIRS:
         both = [task for task in found[against] if task in found[run]]
@@ -228,8 +229,8 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
                 [sweeps / f"{against}-{task}" for task in chosen],
                 [sweeps / f"{run}-{task}" for task in chosen],
             )
-            if len(chosen) == 1:  # per kind, as each lever's comparison with A
-                write_comparison(compared, results / chosen[0] / "levers" / f"{run}-vs-{against}")
+            where = chosen[0] if len(chosen) == 1 else "pooled"  # per kind, as each lever's comparison with A
+            write_comparison(compared, results / where / "levers" / f"{run}-vs-{against}")
             p_value = compared["grid"][TRAINED[0]]["0"]["p_value"]
             lines.append(f"| {label} | {_unperturbed(compared)} (p={p_value:.2g}) | {_at3(compared)} |")
     return [*lines, ""]

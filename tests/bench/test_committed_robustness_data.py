@@ -70,7 +70,8 @@ def test_both_sweeps_start_from_the_same_heldout_starts(task: str) -> None:
 
 
 def test_levers_are_committed() -> None:
-    assert ("mixed-more", "object-0") in LEVER_RUNS and ("single-aug", "spatial-8") in LEVER_RUNS
+    assert ("mixed-more", "spatial-8") in LEVER_RUNS and ("single-aug", "spatial-8") in LEVER_RUNS
+    assert (RESULTS / "pooled" / "levers" / "mixed-more" / "compare.json").is_file()
 
 
 @pytest.mark.parametrize(("lever", "task"), LEVER_RUNS)
@@ -98,6 +99,15 @@ def test_the_summary_is_what_the_report_makes_and_readme_states_it(tmp_path: Pat
     shutil.copytree(RESULTS / "sweeps", copy / "sweeps")
     text = summary(copy)
     assert text == (RESULTS / "summary.md").read_text()
+    # the pooled comparisons behind the levers' rows are the committed ones
+    for compared in sorted((RESULTS / "pooled" / "levers").glob("*/compare.json")):
+        made, committed = (
+            json.loads(p.read_text()) for p in (copy / compared.relative_to(RESULTS), compared)
+        )
+        for report in (made, committed):  # where the sweeps were read from differs, not what they hold
+            for arm in ("a", "b"):
+                report[arm]["sweeps"] = [Path(sweep).name for sweep in report[arm]["sweeps"]]
+        assert made == committed, compared.parent.name
     level3 = next(line for line in text.splitlines() if line.startswith("| trained kinds, level 3 |"))
     figure = level3.split("|")[2].strip()  # B − A, e.g. "+23%"
     readme = " ".join((RESULTS.parents[2] / "README.md").read_text().replace("**", "").split())
