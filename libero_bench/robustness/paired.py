@@ -11,6 +11,7 @@ at one level (the figure a robustness claim states), with its paired bootstrap i
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -242,7 +243,9 @@ def heatmaps(result: dict[str, Any], path: Path) -> Path:
                     text = f"{grid[i, j]:.0%}"
                 ax.text(j, i, text, ha="center", va="center", fontsize=7)
         ax.set_xticks(range(len(levels)), ["none" if c == "0" else f"L{c}" for c in levels])
-        ax.set_title(title, fontsize=8)
+        ax.set_title(
+            textwrap.fill(title, 40), fontsize=8
+        )  # pooled sweeps name every policy: wrap, not overlap
         fig.colorbar(image, ax=ax, fraction=0.05)
     axes[0].set_yticks(range(len(kinds)), kinds)
     fig.tight_layout()
