@@ -243,9 +243,8 @@ def heatmaps(result: dict[str, Any], path: Path) -> Path:
                     text = f"{grid[i, j]:.0%}"
                 ax.text(j, i, text, ha="center", va="center", fontsize=7)
         ax.set_xticks(range(len(levels)), ["none" if c == "0" else f"L{c}" for c in levels])
-        ax.set_title(
-            textwrap.fill(title, 40), fontsize=8
-        )  # pooled sweeps name every policy: wrap, not overlap
+        # pooled sweeps name every policy: wrap the title rather than let it run into the next panel
+        ax.set_title(textwrap.fill(title, 40), fontsize=8)
         fig.colorbar(image, ax=ax, fraction=0.05)
     axes[0].set_yticks(range(len(kinds)), kinds)
     fig.tight_layout()
