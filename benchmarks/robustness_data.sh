@@ -48,7 +48,7 @@
 # textures, noise and arm offsets; 20 demonstrations each, into <task>-variants-s1 and -s2) and trains
 #   mixed-more-<task>  B on all three draws (900 variant demonstrations of 45 variants instead of 300
 #                      of 15; the same weight 0.5 and the same budget)
-# then sweeps it like the levers. ~90 min of data, ~45 min to train and ~15 min to sweep per task on
+# then sweeps it like the levers. ~45 min of data, ~35 min to train and ~12 min to sweep per task on
 # 2 cores. A and B must be trained (or committed).
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -173,11 +173,15 @@ def _more_draws(results: Path, swept: list[str]) -> list[str]:
     return [*lines, ""]
 
 
-def _lever_row(what: str, a: list[Path], x: list[Path], b: list[Path], out: Path | None = None) -> str:
+def _lever_dir(results: Path, chosen: list[str], name: str) -> Path:
+    """Where a lever's per-kind comparison goes: under its task, or ``pooled`` over several."""
+    return results / (chosen[0] if len(chosen) == 1 else "pooled") / "levers" / name
+
+
+def _lever_row(what: str, a: list[Path], x: list[Path], b: list[Path], out: Path) -> str:
     """The lever ``x`` against A and B (``out``: where its per-kind comparison with A goes)."""
     against_a = compare_sweeps(a, x)
-    if out is not None:
-        write_comparison(against_a, out)
+    write_comparison(against_a, out)
     base = against_a["grid"][TRAINED[0]]["0"]
     return (
         f"| {what} | {_unperturbed(against_a)} ({base['difference']:+.0%}, p={base['p_value']:.2g}) | "
@@ -209,8 +213,7 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
         groups += [(f"{' and '.join(tasks)} pooled", tasks)] if len(tasks) > 1 else []
         for label, chosen in groups:
             a, x, b = ([sweeps / f"{arm}-{task}" for task in chosen] for arm in ("single", lever, "mixed"))
-            out = results / (chosen[0] if len(chosen) == 1 else "pooled") / "levers" / lever
-            lines.append(_lever_row(f"{lever}, {label}", a, x, b, out))
+            lines.append(_lever_row(f"{lever}, {label}", a, x, b, _lever_dir(results, chosen, lever)))
     for run, against, heading in LEVER_PAIRS:
         both = [task for task in found[against] if task in found[run]]
         if not both:
@@ -229,8 +232,7 @@ def _levers(results: Path, swept: list[str]) -> list[str]:
                 [sweeps / f"{against}-{task}" for task in chosen],
                 [sweeps / f"{run}-{task}" for task in chosen],
             )
-            where = chosen[0] if len(chosen) == 1 else "pooled"  # per kind, as each lever's comparison with A
-            write_comparison(compared, results / where / "levers" / f"{run}-vs-{against}")
+            write_comparison(compared, _lever_dir(results, chosen, f"{run}-vs-{against}"))
             p_value = compared["grid"][TRAINED[0]]["0"]["p_value"]
             lines.append(f"| {label} | {_unperturbed(compared)} (p={p_value:.2g}) | {_at3(compared)} |")
     return [*lines, ""]
