@@ -17,7 +17,7 @@ def tasks_cmd(
         typer.Option(
             "--suite",
             "-s",
-            help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100) or a suite folder; default: the five suites.",
+            help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100; a LIBERO-PRO suite: libero_goal_swap, libero_object_lan, ..., --suite pro lists them) or a suite folder; default: the five suites.",
         ),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON lines instead of a table.")] = False,
@@ -27,8 +27,12 @@ def tasks_cmd(
 
     from rich.table import Table
 
-    from libero_data.tasks import SUITE_NAMES, get_suite
+    from libero_data.tasks import SUITE_NAMES, get_suite, pro_suite_names
 
+    if suite == "pro":
+        for name in pro_suite_names():
+            print(name)
+        return
     suites = [get_suite(suite)] if suite else [get_suite(n) for n in SUITE_NAMES[:5]]
     out = console()
     for s in suites:

@@ -1,4 +1,5 @@
-"""The 130 LIBERO tasks in five suites (plus ``libero_100``), and suites on disk.
+"""The 130 LIBERO tasks in five suites (plus ``libero_100``), the LIBERO-PRO suites installed with
+them, and suites on disk.
 
 >>> from libero_data.tasks import get_suite, get_task
 >>> get_suite("libero_goal").tasks[0].language
@@ -11,11 +12,15 @@ from libero_data.tasks.suites import (
     SUITE_FILES,
     SUITE_MANIFEST,
     SUITE_NAMES,
+    ProSuite,
     Suite,
     Task,
     get_suite,
     get_task,
     libero_root,
+    pro_suite,
+    pro_suite_names,
+    suite_names,
     task_order,
     task_orders,
 )
@@ -24,12 +29,16 @@ __all__ = [
     "SUITE_FILES",
     "SUITE_MANIFEST",
     "SUITE_NAMES",
+    "ProSuite",
     "Suite",
     "Task",
     "TaskLookupError",
     "get_suite",
     "get_task",
     "libero_root",
+    "pro_suite",
+    "pro_suite_names",
+    "suite_names",
     "task_order",
     "task_orders",
 ]

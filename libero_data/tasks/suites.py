@@ -55,7 +55,8 @@ class Task:
     """One task: where it sits in its suite, its instruction, BDDL and init states.
 
     ``language`` is the instruction LIBERO's benchmark gives policies (derived from the task
-    name); ``problem.language`` is the sentence written inside the BDDL file.
+    name; for LIBERO-PRO's paraphrase and new-task suites, the BDDL's own sentence);
+    ``problem.language`` is the sentence written inside the BDDL file.
     """
 
     suite: str
@@ -196,15 +197,93 @@ def _folder_suite(path: Path) -> Suite:
     return Suite(name, tuple(tasks), path=path)
 
 
+@dataclass(frozen=True)
+class ProSuite:
+    """What a LIBERO-PRO suite's name says: its base suite and either the family of perturbation
+    (``object``, ``swap``, ``lan``, ``task``; its column in LIBERO-PRO's table) or the position
+    shift (``x0.1`` ... ``y0.5``)."""
+
+    name: str
+    base: str
+    family: str | None = None
+    shift: str | None = None
+
+    @property
+    def column(self) -> str:
+        """The suite's column in LIBERO-PRO's table (``Obj``, ``Pos``, ``Sem``, ``Task``; a shift: ``Pos``)."""
+        families = _tables()["pro"]["families"]
+        return str(families[self.family]["column"]) if self.family else "Pos"
+
+    @property
+    def bddl_language(self) -> bool:
+        """Whether policies get the BDDL's own sentence (the perturbed instruction or task)."""
+        return bool(self.family and _tables()["pro"]["families"][self.family]["bddl_language"])
+
+
+def pro_suite(name: str) -> ProSuite | None:
+    """The LIBERO-PRO reading of a suite name (installed or not), or None for any other name."""
+    pro = _tables()["pro"]
+    for base in pro["bases"]:
+        rest = name.removeprefix(base + "_")
+        if rest == name:
+            continue
+        if rest in pro["families"]:
+            return ProSuite(name, base, family=rest)
+        if rest.startswith(pro["shift_prefix"]) and len(rest) > len(pro["shift_prefix"]):
+            return ProSuite(name, base, shift=rest.removeprefix(pro["shift_prefix"]))
+    return None
+
+
+def pro_suite_names(root: str | Path | None = None) -> tuple[str, ...]:
+    """The LIBERO-PRO suites installed with LIBERO: per base suite its four families (in the
+    order of LIBERO-PRO's table), then the position shifts."""
+    folder = libero_root(root) / "bddl_files"
+    pro = _tables()["pro"]
+    names = [f"{base}_{family}" for base in pro["bases"] for family in pro["families"]]
+    shifts = sorted(p.name for p in folder.glob(f"*_{pro['shift_prefix']}*") if pro_suite(p.name) is not None)
+    return tuple(n for n in [*names, *shifts] if (folder / n).is_dir())
+
+
+def suite_names(root: str | Path | None = None) -> tuple[str, ...]:
+    """Every suite known by name: LIBERO's (:data:`SUITE_NAMES`) and the installed LIBERO-PRO suites."""
+    return (*SUITE_NAMES, *pro_suite_names(root))
+
+
+@functools.cache
+def _pro_suite(name: str, root: str) -> Suite:
+    """A LIBERO-PRO suite: its base suite's tasks in the base order, from its own folders."""
+    from libero_data.bddl import parse_file
+
+    meaning = pro_suite(name)
+    assert meaning is not None
+    base = Path(root)
+    folder = base / "bddl_files" / name
+    present = {p.stem for p in folder.glob("*.bddl")}
+    order = [t for t in _tables()["suites"][meaning.base] if t in present]
+    order += sorted(present - set(order))
+    tasks = []
+    for i, task_name in enumerate(order):
+        bddl = folder / f"{task_name}.bddl"
+        init = base / "init_files" / name / f"{task_name}.pruned_init.npz"
+        language = parse_file(bddl).language if meaning.bddl_language else language_from_name(task_name)
+        tasks.append(Task(name, i, task_name, language, bddl, init if init.is_file() else None))
+    return Suite(name, tuple(tasks))
+
+
 def get_suite(name: str | Path, root: str | Path | None = None) -> Suite:
-    """A standard suite by name, or a suite folder (generated tasks) by path."""
+    """A suite by name (LIBERO's five, ``libero_100``, or an installed LIBERO-PRO suite), or a suite
+    folder (generated tasks) by path."""
     key = str(name)
     if key in SUITE_NAMES:
         return _standard_suite(key, str(libero_root(root)))
+    if pro_suite(key) is not None and (libero_root(root) / "bddl_files" / key).is_dir():
+        return _pro_suite(key, str(libero_root(root)))
     path = Path(key)
     if path.is_dir():
         return _folder_suite(path)
-    raise TaskLookupError(_unknown(f"suite {key!r} (not a suite name or a folder)", key, list(SUITE_NAMES)))
+    raise TaskLookupError(
+        _unknown(f"suite {key!r} (not a suite name or a folder)", key, list(suite_names(root)))
+    )
 
 
 def get_task(ref: str, root: str | Path | None = None) -> Task:

