@@ -35,6 +35,7 @@ NOT_EPISODE_CODE = (
     "sim/near.py",
     "sim/hidden.py",
     "sim/sky.py",
+    "sim/libero_loop.py",
 )
 
 

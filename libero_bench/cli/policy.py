@@ -36,7 +36,8 @@ def eval_cmd(
     policy: Annotated[
         Path | None,
         typer.Argument(
-            help="A LeRobot policy: the pretrained_model/ folder lerobot-train writes (or --server)."
+            help="A LeRobot policy (the pretrained_model/ folder lerobot-train writes), a libero-bench run "
+            "folder (its final checkpoint), or --server."
         ),
     ] = None,
     tasks: Annotated[
@@ -62,6 +63,30 @@ def eval_cmd(
             min=0,
         ),
     ] = 20,
+    protocol: Annotated[
+        str,
+        typer.Option(
+            "--protocol",
+            help="libero-bench: stored and held-out starts (--stored, --heldout), intervals, paired tests. "
+            "standard: LIBERO's evaluation as openpi's LIBERO client runs it, request for request (--trials "
+            "episodes per task from stored init states 0..N-1, fixtures as LIBERO's resets place them after "
+            "seed 7, 10 waiting steps, the suite's limit 220/280/300/520/400, 256 px cameras sent as 224 "
+            "padded, replan 5): the number papers report.",
+        ),
+    ] = "libero-bench",
+    trials: Annotated[
+        int,
+        typer.Option("--trials", help="--protocol standard: episodes per task (openpi: 50).", min=1, max=50),
+    ] = 50,
+    benchmark: Annotated[
+        str | None,
+        typer.Option(
+            "--benchmark",
+            help="libero-pro: the standard protocol over each base suite in --tasks (or tasks of it) and its "
+            "four LIBERO-PRO families (object, swap, lan, task), and LIBERO-PRO's table (original, Obj, Pos, "
+            "Sem, Task) with n and Wilson intervals; --trials per task.",
+        ),
+    ] = None,
     max_steps: MaxSteps = "suite",
     server: Server = None,
     device: Device = None,
@@ -74,19 +99,21 @@ def eval_cmd(
     render_quality: RenderQuality = "full",
     keep_work: KeepRollouts = False,
 ) -> None:
-    """Evaluate a LeRobot policy (ACT, Diffusion Policy, SmolVLA, ...) or a served one (--server) in
-    simulation: every rollout stored, success with intervals.
+    """Evaluate a policy in simulation: a LeRobot policy (ACT, Diffusion Policy, SmolVLA, ...), a
+    libero-bench run, or a served one (--server); every rollout stored, success with intervals.
 
     The policy runs once, on --device, batched over --batch-size environments that step in --workers
     processes (or Ray actors with --executor ray). A policy folder's inputs are served from its declared
     features (either camera naming, any image size, the 8-D state) and its own pre- and post-processors
     run as in lerobot-eval. A server gets openpi's LIBERO observation (observation/image,
     observation/wrist_image, observation/state, prompt) and its action chunks are executed
-    --replan-steps at a time.
+    --replan-steps at a time. --protocol standard reproduces openpi's LIBERO client exactly (README:
+    Reproducing a published LIBERO score); --benchmark libero-pro makes LIBERO-PRO's table.
     """
     quiet_environment()
     from libero_bench.evaluation.policy_eval import EvalRequest, eval_markdown, evaluate_policy
     from libero_bench.rollouts.loop import Execution
+    from libero_bench.rollouts.protocol import get_protocol
     from libero_bench.rollouts.sources import policy_source
     from libero_data.errors import InputError
     from libero_data.runtime.jobs import Executor
@@ -96,6 +123,22 @@ def eval_cmd(
         raise InputError("name the tasks to evaluate on", field="tasks")
     if out is None:
         raise InputError("name the evaluation folder", field="out")
+    execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
+    if benchmark is not None:
+        _libero_pro(
+            policy_or_server(policy, server),
+            split_list(tasks),
+            out,
+            trials=trials,
+            max_steps=parse_step_limit(max_steps),
+            render_quality=render_quality,
+            image_size=image_size,
+            replan_steps=replan_steps,
+            execution=execution,
+            benchmark=benchmark,
+            keep_work=keep_work,
+        )
+        return
     request = EvalRequest(
         policy_or_server(policy, server),
         tuple(split_list(tasks)),
@@ -105,9 +148,13 @@ def eval_cmd(
         render_quality=render_quality,
         image_size=image_size,
         replan_steps=replan_steps,
+        protocol=protocol,
+        trials=trials,
     )
-    execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
-    source = policy_source(request.policy, request.image_size, request.replan_steps)  # before any output
+    chosen = get_protocol(request.protocol)
+    source = policy_source(
+        request.policy, request.image_size, request.replan_steps, chosen.request
+    )  # before any output
     with rollout_progress() as (done, total):
         summary = evaluate_policy(
             request,
@@ -121,6 +168,20 @@ def eval_cmd(
     say(eval_markdown(summary))
     say(
         f"wrote {out / 'report.md'}, {out / 'report.json'}, {out / 'success.png'}, the rollouts in {out / 'rollouts'}"
+    )
+
+
+def _libero_pro(policy: str, refs: list[str], out: Path, *, benchmark: str, **options: object) -> None:
+    from libero_bench.evaluation.libero_pro import BENCHMARK, evaluate_libero_pro, pro_markdown
+    from libero_data.errors import InputError
+
+    if benchmark != BENCHMARK:
+        raise InputError(f"unknown benchmark {benchmark!r}; choose {BENCHMARK}", field="benchmark")
+    with rollout_progress() as (done, total):
+        table = evaluate_libero_pro(policy, refs, out, on_result=done, on_total=total, **options)  # type: ignore[arg-type]
+    say(pro_markdown(table))
+    say(
+        f"wrote {out / 'libero_pro.md'}, {out / 'libero_pro.json'}, {out / 'libero_pro.png'} and a folder per suite"
     )
 
 
@@ -156,14 +217,15 @@ def serve_cmd(
     import asyncio
 
     from libero_bench.rollouts.actors import default_device
-    from libero_bench.rollouts.server import PolicyServer, served_policy
+    from libero_bench.rollouts.server import served_policy
 
     chosen = device or default_device()
-    actor, metadata, embed, size = served_policy(str(policy), chosen, view_task)
-    server = PolicyServer(actor, metadata, embed=embed, image_size=size)
+    server = served_policy(str(policy), chosen, view_task)
+    metadata = server.metadata
     ready = lambda bound: say(  # noqa: E731
         f"serving the {metadata['policy_type']} policy on {chosen} at ws://{host}:{bound} "
-        f"(camera images of {metadata['image_size']} px); Ctrl-C stops"
+        f"(camera images of {metadata['image_size']} px, {metadata['action_horizon']} action(s) per request); "
+        "Ctrl-C stops"
     )
     try:
         asyncio.run(server.serve(host, port, ready=ready))
@@ -172,4 +234,4 @@ def serve_cmd(
 
         raise InputError(f"cannot listen on {host}:{port}: {exc.strerror or exc}", field="port") from None
     finally:
-        actor.close()
+        server.actor.close()

@@ -1,5 +1,6 @@
 """The report of a policy evaluation: success per task from each kind of start with n and its
-Wilson interval, each task's step limit and the rollouts it cut, and a bar chart."""
+Wilson interval, each task's step limit and the rollouts it cut, the protocol and where the run
+left its standard, and a bar chart."""
 
 from __future__ import annotations
 
@@ -10,10 +11,12 @@ from typing import Any
 import numpy as np
 
 from libero_bench.analysis.intervals import Rate
-from libero_bench.runs.folder import HELDOUT, STARTS, STORED
+from libero_bench.runs.folder import HELDOUT, STANDARD, START_KINDS, STORED
 from libero_data.tasks.horizons import limit_text
 
 __all__ = ["chart", "eval_markdown", "summarize_eval"]
+
+KIND_TITLES = {STORED: "stored", HELDOUT: "held-out", STANDARD: "standard"}
 
 
 def summarize_eval(
@@ -22,7 +25,8 @@ def summarize_eval(
     """Per task and overall, the success from each kind of start with n and its interval, and
     how many rollouts the step limit cut (failed having taken every step they were allowed)."""
     rows = []
-    totals = {start: Rate(0, 0) for start in STARTS}
+    kinds = [k for k in START_KINDS if any(r["start"] == k for r in records)] or [STORED, HELDOUT]
+    totals = {start: Rate(0, 0) for start in kinds}
     for task in settings["tasks"]:
         mine_all = [r for r in records if r["task_position"] == task["position"]]
         # Folders made before per-task limits hold one number in the request.
@@ -33,7 +37,7 @@ def summarize_eval(
             "max_steps": limit,
             "cut": sum(1 for r in mine_all if not r["success"] and int(r["steps"]) >= limit),
         }
-        for start in STARTS:
+        for start in kinds:
             mine = [
                 r["success"]
                 for r in records
@@ -54,20 +58,26 @@ def summarize_eval(
         evaluated = {
             r["init_index"]
             for r in records
-            if r["task_position"] == task["position"] and r["start"] == STORED
+            if r["task_position"] == task["position"] and r["start"] in (STORED, STANDARD)
         }
         if stored & evaluated:
             notes.append(
                 f"the training data of {task['name']} began from {len(stored & evaluated)} of the stored init "
                 "states it was evaluated from"
             )
+    protocol = settings.get("protocol") or {"name": "libero-bench", "deviations": []}
+    if protocol["name"] == "standard":
+        notes.extend(f"not the standard: {d}" for d in protocol["deviations"])
     return {
         "policy": settings["request"]["policy"],
         "policy_type": settings["policy_type"],
         "max_steps": settings["request"]["max_steps"],
+        "protocol": protocol["name"],
+        "standard": protocol["name"] == "standard" and not protocol["deviations"],
+        "starts": kinds,
         "tasks": rows,
         "all": {
-            **{start: totals[start].to_dict() if totals[start].n else None for start in STARTS},
+            **{start: totals[start].to_dict() if totals[start].n else None for start in kinds},
             "cut": sum(row["cut"] for row in rows),
         },
         "notes": notes,
@@ -80,21 +90,41 @@ def eval_markdown(summary: dict[str, Any]) -> str:
             return "–"
         return f"{rate['rate']:.0%} ({rate['successes']}/{rate['n']}, {rate['low']:.0%}–{rate['high']:.0%})"
 
+    kinds = summary.get("starts", [STORED, HELDOUT])
+    if summary.get("protocol") == "standard":
+        protocol = (
+            "Protocol: standard, LIBERO's evaluation as openpi's LIBERO client runs it (episode i from stored "
+            "init state i, fixtures as LIBERO's resets place them after seed 7, 10 waiting steps, openpi's "
+            "request): "
+            + (
+                "identical to the published protocol."
+                if summary.get("standard")
+                else "**not the standard** (see the notes)."
+            )
+        )
+        limit = "Step limit: each task's in the table (openpi's per suite unless a note says otherwise)."
+    else:
+        protocol = (
+            "Protocol: libero-bench; stored: LIBERO's stored init states (the paper's protocol); held out: "
+            "placements no training demonstration started from."
+        )
+        limit = f"Step limit: {limit_text(summary.get('max_steps', '?'))}."
     lines = [
         f"# {summary['policy_type']} policy: success in simulation",
         "",
-        f"Policy: `{summary['policy']}`. Success with n and 95% Wilson interval; stored: LIBERO's stored init "
-        "states (the paper's protocol); held out: placements no training demonstration started from. "
-        f"Step limit: {limit_text(summary.get('max_steps', '?'))}. Cut: rollouts that failed having taken "
-        "every step of their task's limit (a longer limit might have let them finish).",
+        f"Policy: `{summary['policy']}`. Success with n and 95% Wilson interval. {protocol} {limit} Cut: rollouts "
+        "that failed having taken every step of their task's limit (a longer limit might have let them finish).",
         "",
-        "| task | stored starts | held-out starts | step limit | cut by the step limit |",
-        "|---|---:|---:|---:|---:|",
+        "| task | "
+        + " | ".join(f"{KIND_TITLES[k]} starts" for k in kinds)
+        + " | step limit | cut by the step limit |",
+        "|---|" + "---:|" * len(kinds) + "---:|---:|",
     ]
     for row in [*summary["tasks"], {"task": "**all tasks**", **summary["all"]}]:
         lines.append(
-            f"| {row['task']} | {cell(row[STORED])} | {cell(row[HELDOUT])} | {row.get('max_steps', '')} "
-            f"| {row.get('cut', '–')} |"
+            f"| {row['task']} | "
+            + " | ".join(cell(row.get(k)) for k in kinds)
+            + f" | {row.get('max_steps', '')} | {row.get('cut', '–')} |"
         )
     lines += [f"\n- note: {n}" for n in summary["notes"]]
     return "\n".join(lines) + "\n"
@@ -107,14 +137,18 @@ def chart(summary: dict[str, Any], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     rows = summary["tasks"]
+    kinds = summary.get("starts", [STORED, HELDOUT])
+    colours = {STORED: "tab:blue", HELDOUT: "tab:orange", STANDARD: "tab:green"}
+    width = 0.76 / len(kinds)
     fig, ax = plt.subplots(figsize=(1.5 + 0.9 * len(rows), 3.2), dpi=120)
-    for i, (start, colour) in enumerate(((STORED, "tab:blue"), (HELDOUT, "tab:orange"))):
-        x = np.arange(len(rows)) + (i - 0.5) * 0.38
+    for i, start in enumerate(kinds):
+        colour = colours[start]
+        x = np.arange(len(rows)) + (i - (len(kinds) - 1) / 2) * width
         y = np.array([r[start]["rate"] if r[start] else math.nan for r in rows])
         # Clipped at 0: a Wilson bound can lie a rounding error on the wrong side of the rate.
         low = np.array([max(r[start]["rate"] - r[start]["low"], 0.0) if r[start] else 0 for r in rows])
         high = np.array([max(r[start]["high"] - r[start]["rate"], 0.0) if r[start] else 0 for r in rows])
-        ax.bar(x, y, width=0.38, color=colour, label=f"{start} starts")
+        ax.bar(x, y, width=width, color=colour, label=f"{start} starts")
         ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=3)
     ax.set_xticks(range(len(rows)), [str(i) for i in range(len(rows))])
     ax.set_xlabel("task")

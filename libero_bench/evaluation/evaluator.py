@@ -56,10 +56,10 @@ class Evaluator:
     ) -> list[RolloutResult]:
         """Run ``jobs`` with the policy's current weights; results in the order of ``jobs``."""
         from libero_bench.rollouts.actors import PolicyActor
+        from libero_bench.rollouts.session import roll_out
 
-        results: dict[int, RolloutResult] = {}
-        for i, result in self.environments.run(PolicyActor(policy), jobs):
-            results[i] = result
-            if on_result:
-                on_result(result)
-        return [results[i] for i in range(len(jobs))]
+        results = {
+            job.key: result
+            for job, result in roll_out(self.environments, PolicyActor(policy), jobs, on_result)
+        }
+        return [results[job.key] for job in jobs]

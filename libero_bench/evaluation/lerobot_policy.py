@@ -104,8 +104,8 @@ def lerobot_config(path: Path) -> Any:
     path = Path(path)
     if RunFolder(path).is_run():
         raise InputError(
-            f"{path} is a libero-bench run folder, not a LeRobot policy folder; `libero-bench robustness` "
-            "and `libero-bench serve` take run folders",
+            f"{path} is a libero-bench run folder, not a LeRobot policy folder; give it to libero-bench eval, "
+            "robustness or serve as a run",
             field="policy",
         )
     if not (path / "config.json").is_file():

@@ -1,21 +1,22 @@
-"""``libero-bench eval``: a trained LeRobot policy, or a policy served elsewhere over openpi's
-websocket protocol, evaluated on tasks, suites, generated suites or robustness variants, with the
-benchmark's protocol and outputs. The policy runs once, batched over the environments
-(:mod:`libero_bench.rollouts`); ``results.json`` records how each session ran (batch size, workers,
-device, forward passes).
+"""``libero-bench eval``: a policy (a libero-bench run, a LeRobot policy folder, or one served over
+openpi's websocket protocol) evaluated on tasks, suites, generated suites or robustness variants,
+under an evaluation protocol (:mod:`libero_bench.rollouts.protocol`). The policy runs once, batched
+over the environments (:mod:`libero_bench.rollouts`); ``results.json`` records how each session ran
+(batch size, workers, device, forward passes).
 
-Every task is rolled out from LIBERO's stored init states (where it has them) and from held-out
-placements (``libero_data.seeding.heldout_starts``, skipping the seeds the policy's training
-demonstrations started from when its ``train_config.json`` names a libero-data dataset). Every
+Under the default protocol every task is rolled out from LIBERO's stored init states (where it has
+them) and from held-out placements (``libero_data.seeding.heldout_starts``, skipping the seeds the
+policy's training demonstrations started from, where they are known). Under the standard protocol
+episode ``i`` starts from stored init state ``i`` as openpi's LIBERO client starts it. Every
 rollout is stored like a demonstration (``rollouts/``: one LeRobot dataset, an MCAP log each;
-``rrd/``: a Rerun recording each); ``results.json`` lists them, and the report gives every
-task's success with n and a 95% Wilson interval. The folder resumes after an interruption.
+``rrd/``: a Rerun recording each); ``results.json`` lists them, and the report gives every task's
+success with n and a 95% Wilson interval. The folder resumes after an interruption
+(:class:`~libero_bench.rollouts.session.RolloutSession`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import shutil
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,26 +27,29 @@ import numpy as np
 from libero_bench.evaluation.eval_report import chart, eval_markdown, summarize_eval
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make_job
 from libero_bench.rollouts.loop import Execution
-from libero_bench.rollouts.sources import PolicySource, is_server, policy_source
-from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
-from libero_data.errors import InputError
+from libero_bench.rollouts.protocol import LIBERO_BENCH, PROTOCOLS, Protocol, get_protocol
+from libero_bench.rollouts.session import Group, RolloutSession, rollout_record
+from libero_bench.rollouts.sources import RUN, SERVER, PolicySource, policy_source
+from libero_bench.runs.folder import HELDOUT, STANDARD, STORED
+from libero_data.errors import InputError, LiberoDataError
 from libero_data.pipeline.request import state_width
 from libero_data.rollout import RolloutSettings
 from libero_data.runtime.files import read_json, write_json, write_text
 from libero_data.runtime.folder import WorkFolder
-from libero_data.tasks.horizons import step_limit
+from libero_data.tasks.horizons import SUITE, step_limit
 
 EVAL_FORMAT = "libero-bench-eval/1"
 
 
 @dataclass(frozen=True)
 class EvalRequest(RolloutSettings):
-    """What to evaluate: a LeRobot policy folder or a policy server (``ws://HOST:PORT``) on
-    tasks, from how many starts of each kind, with the shared rollout settings (``max_steps``,
+    """What to evaluate: a policy (a run folder, a LeRobot policy folder or a server, ``ws://HOST:
+    PORT``) on tasks, under ``protocol``: the default's starts of each kind (``stored``, ``heldout``)
+    or the standard protocol's ``trials`` per task, with the shared rollout settings (``max_steps``,
     ``settle``, ``render_quality``: :class:`~libero_data.rollout.RolloutSettings`). For a server,
-    ``image_size`` is the camera size sent (default: the size the server's metadata names, else
-    224, openpi's) and ``replan_steps`` the actions executed of each chunk it returns (openpi's
-    LIBERO client: 5)."""
+    ``image_size`` is the camera size sent (default: the size the server's metadata names, else 224,
+    openpi's) and ``replan_steps`` the actions executed of each chunk it returns (openpi's LIBERO
+    client: 5)."""
 
     policy: str
     tasks: tuple[str, ...]
@@ -53,9 +57,12 @@ class EvalRequest(RolloutSettings):
     heldout: int = 20
     image_size: int | None = None
     replan_steps: int = 5
+    protocol: str = LIBERO_BENCH
+    trials: int = 50
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        get_protocol(self.protocol)
         if self.replan_steps < 1:
             raise InputError("execute at least one action of each chunk", field="replan_steps")
         if self.image_size is not None and self.image_size < 8:
@@ -64,11 +71,41 @@ class EvalRequest(RolloutSettings):
             )
         if not self.tasks:
             raise InputError("no tasks to evaluate on", field="tasks")
-        for name in ("stored", "heldout"):
+        for name in ("stored", "heldout", "trials"):
             if getattr(self, name) < 0:
-                raise InputError(f"the number of {name} starts must not be negative", field=name)
-        if self.stored + self.heldout == 0:
-            raise InputError("evaluate from at least one start", field="stored")
+                raise InputError(f"the number of {name} must not be negative", field=name)
+        if self.counts() and not any(self.counts().values()):
+            raise InputError(
+                "evaluate from at least one start", field="trials" if self.is_standard else "stored"
+            )
+
+    @property
+    def is_standard(self) -> bool:
+        return get_protocol(self.protocol).standard
+
+    def counts(self) -> dict[str, int]:
+        """Rollouts per task from each kind of start."""
+        if self.is_standard:
+            return {STANDARD: self.trials}
+        return {STORED: self.stored, HELDOUT: self.heldout}
+
+    def deviations(self) -> list[str]:
+        """Where this request leaves its protocol's standard (empty for the default protocol)."""
+        protocol = get_protocol(self.protocol)
+        if not protocol.standard:
+            return []
+        out = []
+        if self.max_steps != SUITE:
+            out.append(f"a step limit of {self.max_steps} instead of the suite's")
+        if self.settle != protocol.settle:
+            out.append(f"{self.settle} waiting steps instead of {protocol.settle}")
+        if self.render_quality != "full":
+            out.append(f"{self.render_quality} rendering (LIBERO's pixels are full rendering's)")
+        if self.replan_steps != protocol.replan_steps:
+            out.append(f"{self.replan_steps} actions of each chunk instead of {protocol.replan_steps}")
+        if self.image_size not in (None, protocol.sent_size):
+            out.append(f"images sent at {self.image_size} instead of {protocol.sent_size}")
+        return out
 
 
 def resolve_tasks(refs: Sequence[str]) -> list[Any]:
@@ -84,36 +121,15 @@ def resolve_tasks(refs: Sequence[str]) -> list[Any]:
             out.append(get_task(ref))
     names = [t.name for t in out]
     if len(set(names)) != len(names):
-        raise InputError("the task list names a task twice", field="tasks")
+        raise InputError(
+            "the task list names a task twice (a LIBERO-PRO suite's tasks have its base suite's names: "
+            "evaluate each suite in its own folder)",
+            field="tasks",
+        )
     return out
 
 
-def training_starts(policy: Path) -> tuple[str | None, dict[str, tuple[set[int], set[int]]]]:
-    """The dataset the policy was trained on (from ``train_config.json``) and, per task, where its
-    demonstrations started (stored init indices, sampler seeds); empty where it is not known."""
-    from libero_bench.data.dataset import DemoDataset
-    from libero_data.errors import LiberoDataError
-
-    path = policy / "train_config.json"
-    if not path.is_file():
-        return None, {}
-    config = read_json(path)
-    root = ((config.get("dataset") if isinstance(config, dict) else None) or {}).get("root")
-    if not root or not Path(root).is_dir():
-        return root, {}
-    try:
-        data = DemoDataset(root)
-    except LiberoDataError:
-        return root, {}
-    found = {}
-    for task in data.tasks:
-        starts = data.training_starts(task)
-        if starts is not None:
-            found[task.name] = starts
-    return root, found
-
-
-def _eval_task(task: Any, position: int, heldout: int, avoid: set[int]) -> EvalTask:
+def _eval_task(task: Any, position: int, heldout: int, avoid: set[int], embedding: np.ndarray) -> EvalTask:
     from libero_data.seeding import heldout_starts
 
     inits = task.init_states() if task.init_states_path is not None else None
@@ -122,7 +138,7 @@ def _eval_task(task: Any, position: int, heldout: int, avoid: set[int]) -> EvalT
         language=task.language,
         position=position,
         env_ref=str(task.bddl_path),
-        task_emb=np.zeros(1, dtype=np.float32),
+        task_emb=embedding,
         init_states=inits,
         heldout=tuple(heldout_starts(task.name, heldout, avoid=avoid)),
         suite=task.suite,
@@ -131,18 +147,21 @@ def _eval_task(task: Any, position: int, heldout: int, avoid: set[int]) -> EvalT
 
 def _jobs(
     request: EvalRequest,
+    protocol: Protocol,
     tasks: list[EvalTask],
     limits: Mapping[str, int],
     size: int,
     width: int,
-    folder: RunFolder,
+    session: RolloutSession,
 ) -> list[RolloutJob]:
+    folder = session.folder
     jobs = []
     for task in tasks:
-        stored = request.stored if task.init_states is not None else 0
-        for start, count in ((STORED, stored), (HELDOUT, request.heldout)):
+        for start, count in request.counts().items():
+            if start == STORED and task.init_states is None:
+                continue
             for r in range(count):
-                key = f"t{task.position:03d}-{'r' if start == STORED else 'h'}{r:03d}"
+                key = f"t{task.position:03d}-{start[0]}{r:03d}"
                 jobs.append(
                     make_job(
                         task,
@@ -157,9 +176,45 @@ def _jobs(
                         tags={"task_position": task.position, "phase": "eval", "policy": request.policy},
                         start=start,
                         render_quality=request.render_quality,
+                        limits=protocol.limits,
                     )
                 )
     return jobs
+
+
+def _groups(
+    source: PolicySource, request: EvalRequest, protocol: Protocol, jobs: list[RolloutJob]
+) -> list[Group]:
+    """The jobs grouped by the actor that acts for them (a run's per-task evaluation view), each
+    actor wrapped in the protocol's request mapping where it runs here."""
+    from libero_bench.rollouts.observations import EXTRA_ENTRIES, OBSERVATION_KEYS, RequestView
+
+    def opener(view: int | None) -> Callable[[str], Any]:
+        def open_actor(device: str) -> Any:
+            actor = source.open(device, view)
+            if not protocol.standard or source.kind == SERVER:
+                return actor
+            carried = set(OBSERVATION_KEYS.values())
+            foreign = [k for k in source.reads if k not in carried]
+            if foreign:
+                raise InputError(
+                    f"the {source.policy_type} policy reads {', '.join(foreign)}, which openpi's request "
+                    "cannot carry; evaluate it under the libero-bench protocol",
+                    field="protocol",
+                )
+            needs = [k for k in source.reads if k in EXTRA_ENTRIES and k != "gripper_state"]
+            size = source.render_size if source.kind == RUN else None
+            return RequestView(actor, sent_size=request.image_size or 224, image_size=size, needs=needs)
+
+        return open_actor
+
+    by_view: dict[int | None, list[RolloutJob]] = {}
+    for job in jobs:
+        by_view.setdefault(source.view_of(job.task_name), []).append(job)
+    return [
+        (opener(view), group)
+        for view, group in sorted(by_view.items(), key=lambda e: (e[0] is None, e[0] or 0))
+    ]
 
 
 def evaluate_policy(
@@ -182,14 +237,26 @@ def evaluate_policy(
     variants of one task are rolled out from the same placements (libero_bench.robustness.cells), and
     ``step_limits`` (task name -> steps) replaces a task's step limit (a variant takes its source's);
     ``source`` is the request's policy when the caller has opened it already (``policy_source``)."""
-    from libero_data.runtime.versions import versions
-
+    protocol = PROTOCOLS[request.protocol]
     execution = execution or Execution()
-    source = source or policy_source(request.policy, request.image_size, request.replan_steps)
+    source = source or policy_source(
+        request.policy, request.image_size, request.replan_steps, protocol.request
+    )
     tasks = resolve_tasks(request.tasks)
-    dataset, starts = training_starts(Path(source.ref)) if not is_server(source.ref) else (None, {})
+    try:
+        dataset, starts = source.training_starts()
+    except LiberoDataError:
+        if HELDOUT in request.counts() and request.heldout:
+            raise  # held-out placements must avoid the training data's: it has to be found
+        dataset, starts = None, {}
+    embeddings = (
+        source.embed([t.language for t in tasks])
+        if source.embed is not None
+        else np.zeros((len(tasks), 1), dtype=np.float32)
+    )
     eval_tasks = [
-        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1]) for i, t in enumerate(tasks)
+        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1], embeddings[i])
+        for i, t in enumerate(tasks)
     ]
     if heldout_seeds:
         eval_tasks = [
@@ -200,18 +267,21 @@ def evaluate_policy(
         len(e.init_states[0]) if e.init_states is not None else state_width(t)
         for e, t in zip(eval_tasks, tasks, strict=True)
     )
-    limits = {e.name: step_limit(request.max_steps, e.suite) for e in eval_tasks}
+    limits = {e.name: step_limit(request.max_steps, e.suite, protocol.limits) for e in eval_tasks}
     limits.update({name: n for name, n in (step_limits or {}).items() if name in limits})
-    folder = RunFolder(Path(out).resolve())
+    session = RolloutSession(Path(out).resolve())
     settings = {
         "format": EVAL_FORMAT,
         "request": {**asdict(request), "policy": source.ref, "tasks": list(request.tasks)},
         "policy_type": source.policy_type,
+        "policy_kind": source.kind,
         "inputs": source.inputs,
+        "protocol": {"name": protocol.name, "deviations": request.deviations()},
         "tasks": [
             {
                 "position": e.position,
                 "name": e.name,
+                "suite": e.suite,
                 "language": e.language,
                 "bddl": e.env_ref,
                 "max_steps": limits[e.name],
@@ -221,118 +291,42 @@ def evaluate_policy(
         "training_data": dataset,
         "heldout_seeds": {t.name: list(t.heldout) for t in eval_tasks},
     }
-    work = WorkFolder(folder.root, "policy evaluation")
-    work.claim(
+    WorkFolder(session.root, "policy evaluation").claim(
         settings,
         name="config.json",
-        owner=folder.root,
+        owner=session.root,
         advice="use the same command or another output folder",
     )
-    results_path = folder.results
-    saved = read_json(results_path, required=("rollouts",)) if results_path.is_file() else {}
-    done = saved.get("rollouts", [])
-    sessions = saved.get("sessions", [])
-    joined = bool(saved.get("complete")) and (folder.rollouts / "meta" / "info.json").is_file()
-    finished = {r["key"] for r in done if joined or (folder.shard(r["key"]) / "episode.json").is_file()}
-    jobs = [
-        j
-        for j in _jobs(request, eval_tasks, limits, source.render_size, width, folder)
-        if j.key not in finished
-    ]
-    records = [r for r in done if r["key"] in finished]
+    session.load()
+    size = protocol.render_size or source.render_size
+    jobs = session.left(_jobs(request, protocol, eval_tasks, limits, size, width, session))
     if on_total:
-        on_total(len(jobs) + len(records))
-    WorkFolder(folder.work, "policy evaluation").clean("shards/*.tmp-*")
+        on_total(len(jobs) + len(session.records))
     if jobs:
-        session = _roll_out(source, jobs, folder, execution, records, sessions, on_result)
-        sessions.append(session)
+        session.run(
+            execution,
+            _groups(source, request, protocol, jobs),
+            lambda job, result: rollout_record(job, result, task_position=job.tags["task_position"]),
+            on_result,
+        )
+    records = [session.records[k] for k in sorted(session.records)]
     summary = summarize_eval(settings, records, starts)
-    write_json(
-        results_path,
-        {"rollouts": records, "complete": True, "sessions": sessions, "versions": versions(python=True)},
-    )
-    _finish(folder, settings, records, summary, rollouts=bool(jobs) or not joined)
-    if not keep_work:
-        shutil.rmtree(folder.work, ignore_errors=True)
+    if jobs or not session.joined:
+        session.join(
+            _rollouts_meta(session.root, settings),
+            {e.name: Path(e.env_ref).read_text() for e in eval_tasks},
+        )
+    session.save(complete=True)
+    write_text(session.root / "report.md", eval_markdown(summary))
+    write_json(session.root / "report.json", summary)
+    chart(summary, session.root / "success.png")
+    session.clean(keep_work)
     return summary
 
 
-def _roll_out(
-    source: PolicySource,
-    jobs: list[RolloutJob],
-    folder: RunFolder,
-    execution: Execution,
-    records: list[dict[str, Any]],
-    sessions: list[dict[str, Any]],
-    on_result: Callable[[RolloutResult], None] | None,
-) -> dict[str, Any]:
-    """Run ``jobs``, appending each finished rollout to ``records`` (and ``results.json``); how
-    they ran (batch size, workers, device, the actor) as this session's record."""
-    from libero_data.runtime.versions import versions
-
-    actor = source.open(execution.policy_device())
-    session: dict[str, Any] = {}
-    try:
-        with execution.open(folder.root) as environments:
-            session = {**environments.describe(), **actor.describe(), "rollouts": 0}
-            for i, result in environments.run(actor, jobs):
-                records.append(_record(jobs[i], result))
-                session["rollouts"] += 1
-                write_json(
-                    folder.results,
-                    {
-                        "rollouts": records,
-                        "complete": False,
-                        "sessions": [*sessions, session],
-                        "versions": versions(python=True),
-                    },
-                )
-                if on_result:
-                    on_result(result)
-    finally:
-        actor.close()
-    session["forwards"] = actor.forwards
-    return session
-
-
-def _record(job: RolloutJob, result: RolloutResult) -> dict[str, Any]:
+def _rollouts_meta(root: Path, settings: dict[str, Any]) -> dict[str, Any]:
     return {
-        "key": job.key,
-        "task": job.task_name,
-        "task_position": job.tags["task_position"],
-        "start": job.start,
-        "rollout": job.tags["rollout"],
-        "init_index": job.init_index,
-        "env_seed": job.env_seed,
-        "success": result.success,
-        "steps": result.steps,
-    }
-
-
-def _finish(
-    folder: RunFolder,
-    settings: dict[str, Any],
-    records: list[dict[str, Any]],
-    summary: dict[str, Any],
-    *,
-    rollouts: bool = True,
-) -> None:
-    """The rollout dataset (unless it holds every rollout already), the report (Markdown, JSON)
-    and its chart."""
-    if rollouts:
-        _join_rollouts(folder, settings, records)
-    write_text(folder.root / "report.md", eval_markdown(summary))
-    write_json(folder.root / "report.json", summary)
-    chart(summary, folder.root / "success.png")
-
-
-def _join_rollouts(folder: RunFolder, settings: dict[str, Any], records: list[dict[str, Any]]) -> None:
-    from libero_bench.evaluation.rollout_dataset import build_rollout_dataset
-
-    keys = sorted(r["key"] for r in records)
-    bddl = {t["name"]: Path(t["bddl"]).read_text() for t in settings["tasks"]}
-    meta = {
-        "run": folder.root.name,
+        "run": root.name,
         "algo": "—",
         "policy": settings["policy_type"],
         "preset": "eval",
@@ -340,6 +334,8 @@ def _join_rollouts(folder: RunFolder, settings: dict[str, Any], records: list[di
         "request": {"repo_id": "libero-bench/rollouts", "suite": "eval"},
         "tasks": settings["tasks"],
     }
-    build_rollout_dataset(
-        [folder.shard(k) for k in keys], folder.rollouts, run_meta=meta, bddl=bddl, work_dir=folder.work
-    )
+
+
+def eval_records(folder: str | Path) -> list[dict[str, Any]]:
+    """The rollout records of a finished evaluation folder."""
+    return list(read_json(Path(folder) / "results.json", required=("rollouts",))["rollouts"])

@@ -111,10 +111,10 @@ def collect_run_rollouts(
     import logging
     import time
 
-    keys = sorted(r["key"] for r in results.rollouts)
-    missing = [k for k in keys if not (folder.shard(k) / "episode.json").is_file()]
-    if missing:
-        raise RunError(f"{folder.root}: rollout {missing[0]} is missing from {folder.shards}")
+    from libero_bench.rollouts.session import RolloutSession
+
+    session = RolloutSession(folder.root)
+    session.records = {r["key"]: r for r in results.rollouts}
     meta = {
         "run": folder.root.name,
         "algo": plan.request.algo,
@@ -129,13 +129,7 @@ def collect_run_rollouts(
         ],
     }
     started = time.perf_counter()
-    count = build_rollout_dataset(
-        [folder.shard(k) for k in keys],
-        folder.rollouts,
-        run_meta=meta,
-        bddl={t.name: Path(t.env_ref).read_text() for t in tasks},
-        work_dir=folder.work,
-    )
+    count = session.join(meta, {t.name: Path(t.env_ref).read_text() for t in tasks})
     folder.append_timing(
         {"what": "collect_rollouts", "episodes": count, "seconds": round(time.perf_counter() - started, 3)}
     )

@@ -20,6 +20,7 @@ from libero_bench.robustness.cells import (
     write_sweep_report,
 )
 from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.sources import PolicySource
 
 
 def sweep(
@@ -34,16 +35,15 @@ def sweep(
 ) -> dict[str, Any]:
     """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
     policy server, ``ws://HOST:PORT``); ``keep_work`` keeps the rollouts' shards once joined."""
-    from libero_bench.rollouts.sources import check_policy, is_server
-    from libero_bench.runs.folder import RunFolder
+    from libero_bench.rollouts.sources import RUN, check_policy, is_server
     from libero_data.runtime.versions import versions
 
     execution = execution or Execution()
     out = Path(out).resolve()
     ref = str(policy) if is_server(str(policy)) else str(Path(policy).resolve())
-    check_policy(ref, request.image_size, request.replan_steps)  # before anything is written
+    source = check_policy(ref, request.image_size, request.replan_steps)  # before anything is written
     cells = make_cells(request, out / VARIANTS)
-    if not is_server(ref) and RunFolder(Path(ref)).is_run():
+    if source.kind == RUN:
         from libero_bench.robustness.run_policy import run_outcomes
 
         outcomes, name, seeds = run_outcomes(
@@ -51,7 +51,7 @@ def sweep(
         )
     else:
         outcomes, name, seeds = _lerobot_outcomes(
-            ref, request, cells, out, execution, on_result, on_total, keep_work
+            source, request, cells, out, execution, on_result, on_total, keep_work
         )
     summary = {
         "policy": ref,
@@ -69,7 +69,7 @@ def sweep(
 
 
 def _lerobot_outcomes(
-    policy: str,
+    source: PolicySource,
     request: SweepRequest,
     cells: list[Cell],
     out: Path,
@@ -80,10 +80,10 @@ def _lerobot_outcomes(
 ) -> tuple[dict[str, list[bool]], str, dict[str, tuple[int, ...]]]:
     """Outcomes per cell of a LeRobot policy or a served one (``libero-bench eval`` on the
     variants suite), its name and the held-out seeds per source task."""
-    from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy, training_starts
-    from libero_bench.rollouts.sources import is_server
+    from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy
 
-    _, starts = training_starts(Path(policy)) if not is_server(policy) else (None, {})
+    policy = source.ref
+    _, starts = source.training_starts()
     seeds = heldout_seeds(request, {name: s[1] for name, s in starts.items()})
     by_name = {c.name: seeds[c.source] for c in cells if not c.reason}
     limits = request.step_limits()
@@ -106,6 +106,7 @@ def _lerobot_outcomes(
         heldout_seeds=by_name,
         step_limits={c.name: limits[c.source] for c in cells if not c.reason},
         keep_work=keep_work,
+        source=source,
     )
     records = json.loads((out / "eval" / "results.json").read_text())["rollouts"]
     outcomes: dict[str, list[bool]] = {}

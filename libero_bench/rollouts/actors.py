@@ -31,15 +31,23 @@ Observations = Mapping[int, Mapping[str, Any]]
 @dataclass(frozen=True)
 class Start:
     """What an actor learns when a slot begins an episode: the rollout's key (it seeds a sampling
-    policy's noise), the task's instruction and, for libero-bench's policies, its embedding."""
+    policy's noise), the task's instruction and, for libero-bench's policies, its embedding; the
+    episode's number (its stored init state, -1 for another start) and the task's suite, which
+    openpi's episode messages carry."""
 
     key: str
     language: str
     task_emb: np.ndarray | None = field(default=None, repr=False)
+    episode: int = -1
+    experiment: str = ""
 
 
 class BatchActor:
-    """Acts for many environments at once (see the module docstring)."""
+    """Acts for many environments at once (see the module docstring). ``reads`` names the
+    observations it reads; ``chunk_size`` is the actions one forward pass predicts (1: one per step)."""
+
+    reads: tuple[str, ...] = ("agentview", "eye_in_hand", "state")
+    chunk_size: int = 1
 
     def __init__(self) -> None:
         self.forwards = 0  # batched forward passes so far
@@ -53,8 +61,13 @@ class BatchActor:
         """One 7-D action for every slot in ``observations`` (its latest observation)."""
         raise NotImplementedError
 
-    def end(self, slot: int) -> None:
-        """``slot``'s episode ended."""
+    def end(self, slot: int, success: bool | None = None) -> None:
+        """``slot``'s episode ended (``success``: its outcome, where known)."""
+
+    def act_chunks(self, observations: Observations) -> dict[int, np.ndarray]:
+        """A fresh chunk ``(H, 7)`` for every slot in ``observations``: what a policy server answers
+        a client that executes chunks (openpi's). One action per slot for a one-step policy."""
+        return {slot: np.asarray(action)[None] for slot, action in self.act(observations).items()}
 
     def describe(self) -> dict[str, Any]:
         """What results record about how the policy ran."""
@@ -87,13 +100,30 @@ class ActionQueues:
         return sorted(s for s in slots if not self._queues.get(s))
 
     def fill(self, slot: int, chunk: np.ndarray) -> None:
-        chunk = np.asarray(chunk, dtype=np.float32).reshape(-1, np.asarray(chunk).shape[-1])
+        chunk = np.asarray(chunk, dtype=np.float64).reshape(-1, np.asarray(chunk).shape[-1])
         if chunk.shape[0] == 0:
             raise ValueError("the policy returned an empty action chunk")
         self._queues[slot] = deque(chunk[: self.steps] if self.steps else chunk)
 
     def pop(self, slot: int) -> np.ndarray:
         return self._queues[slot].popleft()
+
+    def take(self, slot: int) -> list[np.ndarray]:
+        """Every action left in the slot's queue (the queue is then empty)."""
+        rest = list(self._queues.get(slot, ()))
+        self.clear(slot)
+        return rest
+
+
+def chunked_answers(
+    actor: BatchActor, queues: ActionQueues, observations: Observations
+) -> dict[int, np.ndarray]:
+    """:meth:`BatchActor.act_chunks` of an actor that queues chunks: each slot's queue is emptied,
+    so the call predicts anew, and the chunk comes back whole (its first action and the rest)."""
+    for slot in observations:
+        queues.clear(slot)
+    first = actor.act(observations)
+    return {s: np.stack([np.asarray(first[s]), *[np.asarray(a)[:7] for a in queues.take(s)]]) for s in first}
 
 
 @contextmanager
@@ -159,6 +189,8 @@ def observation_rows(
 class PolicyActor(BatchActor):
     """A libero-bench policy (in eval mode, on its own device): every slot acts every step."""
 
+    reads = ("agentview", "eye_in_hand", "joint_pos", "gripper_state")
+
     def __init__(self, policy: Policy) -> None:
         super().__init__()
         self.policy = policy
@@ -172,7 +204,7 @@ class PolicyActor(BatchActor):
         self._history[slot] = None
         self._embedding[slot] = np.asarray(start.task_emb, dtype=np.float32)
 
-    def end(self, slot: int) -> None:
+    def end(self, slot: int, success: bool | None = None) -> None:
         self._history.pop(slot, None)
         self._embedding.pop(slot, None)
 

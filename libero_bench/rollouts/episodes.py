@@ -12,7 +12,9 @@ success) and a Rerun ``.rrd`` (:mod:`libero_bench.evaluation.rerun_log`).
 One rollout: take (or build) the task's :class:`~libero_data.sim.LiberoEnv`, reset it to the job's
 start, let the scene settle with ``settle`` no-op steps (LIBERO waits 10 before acting), then act
 until the task's goal holds or ``max_steps`` steps have passed. Success is the environment's goal
-predicate, as in LIBERO. Each slot keeps its environment between episodes of the same task.
+predicate, as in LIBERO. A standard start (``job.libero_loop``) runs LIBERO's own loop on the
+environment instead (:class:`~libero_data.sim.libero_loop.LiberoLoop`: LIBERO's reset, start, step
+and ``done``). Each slot keeps its environment between episodes of the same task.
 """
 
 from __future__ import annotations
@@ -79,10 +81,20 @@ class EpisodeHost:
             render_quality=job.render_quality,
             arm_noise=job.arm_noise,
         )
+
+        def build() -> Any:
+            env = LiberoEnv(job.env_ref, config)
+            if not job.libero_loop:
+                return env
+            from libero_data.sim.libero_loop import LiberoLoop
+
+            return LiberoLoop(env, seed=job.env_seed)
+
+        loop_seed = job.env_seed if job.libero_loop else None
         return self.ctx.cache.get(
             f"env-{slot}",
-            (job.env_ref, job.image_size, job.render_quality, job.arm_noise),
-            lambda: LiberoEnv(job.env_ref, config),
+            (job.env_ref, job.image_size, job.render_quality, job.arm_noise, loop_seed),
+            build,
             close=lambda e: e.close(),
         )
 
@@ -92,7 +104,11 @@ class EpisodeHost:
             raise RuntimeError(f"slot {slot} is still running {self.running[slot].job.key}")
         started = time.perf_counter()
         env = self.environment(slot, job)
-        obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
+        if job.libero_loop:
+            assert job.init_state is not None, "a standard start has a stored init state"
+            obs = env.reset(job.init_state, job.init_index, settle=job.settle)
+        else:
+            obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
         self.running[slot] = Episode(job, env, obs, started)
         return policy_view(obs)
 

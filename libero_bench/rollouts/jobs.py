@@ -1,10 +1,12 @@
 """What one evaluation rollout is: its task, its start and its settings (a job), and its result.
 
-Starts come in two kinds, the same for every epoch, checkpoint, run and method: *stored*
+Starts come in three kinds, the same for every epoch, checkpoint, run and method: *stored*
 (``libero_data.seeding.rollout_start``: rollout ``r`` from LIBERO's stored init state
-``r mod 50`` with fixture seed ``r``, the paper's protocol) and *held out* (placements LIBERO's
-sampler draws from the task's held-out seed stream, skipping any seed a demonstration of the
-task started from). A rollout's start is a function of its job only.
+``r mod 50`` with fixture seed ``r``), *held out* (placements LIBERO's sampler draws from the
+task's held-out seed stream, skipping any seed a demonstration of the task started from), and
+*standard* (the standard protocol's: rollout ``r`` from stored init state ``r``, its fixtures
+where LIBERO's ``r``-th reset after seeding with 7 puts them; :mod:`libero_data.sim.libero_loop`).
+A rollout's start is a function of its job only.
 """
 
 from __future__ import annotations
@@ -16,10 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.runs.folder import HELDOUT, STORED
+from libero_bench.runs.folder import HELDOUT, STANDARD, STORED
+from libero_data.errors import InputError
 from libero_data.seeding import rollout_start
 from libero_data.sim.arm import ARM_INIT_NOISE
-from libero_data.tasks.horizons import StepLimit, step_limit
+from libero_data.sim.libero_loop import LIBERO_LOOP_SEED
+from libero_data.tasks.horizons import SUITE_LIMITS, StepLimit, step_limit
 
 
 @dataclass(frozen=True)
@@ -45,6 +49,14 @@ class EvalTask:
         if start == HELDOUT:
             return None, -1, self.heldout[rollout]
         stored = 0 if self.init_states is None else len(self.init_states)
+        if start == STANDARD:
+            if self.init_states is None or rollout >= stored:
+                raise InputError(
+                    f"task {self.name} has {stored} stored init states; the standard protocol's episode "
+                    f"{rollout} starts from init state {rollout}",
+                    field="trials",
+                )
+            return np.asarray(self.init_states[rollout]), rollout, LIBERO_LOOP_SEED
         index, seed = rollout_start(rollout, stored)
         if index < 0 or self.init_states is None:
             return None, -1, seed
@@ -74,6 +86,8 @@ class RolloutJob:
     start: str = STORED
     render_quality: str = "full"
     arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on held-out (sampler) starts
+    libero_loop: bool = False  # LIBERO's own loop (a standard start): env_seed seeds it once per task
+    suite: str = ""  # the task's suite (openpi's episode messages name it)
 
 
 @dataclass(frozen=True)
@@ -99,12 +113,13 @@ def make_job(
     start: str = STORED,
     render_quality: str = "full",
     arm_noise: float = ARM_INIT_NOISE,
+    limits: Mapping[str, int] = SUITE_LIMITS,
 ) -> RolloutJob:
     """Rollout number ``rollout`` of ``task`` from a ``start`` kind; ``max_steps`` a number of
-    steps or ``"suite"`` (the task's suite's limit, :mod:`libero_data.tasks.horizons`), recorded
-    in the rollout's tags either way."""
+    steps or ``"suite"`` (the task's suite's entry in ``limits``, :mod:`libero_data.tasks.horizons`),
+    recorded in the rollout's tags either way. A standard start runs LIBERO's own loop."""
     init_state, init_index, env_seed = task.start(rollout, start)
-    limit = step_limit(max_steps, task.suite)
+    limit = step_limit(max_steps, task.suite, limits)
     return RolloutJob(
         key=key,
         env_ref=task.env_ref,
@@ -131,4 +146,6 @@ def make_job(
         start=start,
         render_quality=render_quality,
         arm_noise=arm_noise,
+        libero_loop=start == STANDARD,
+        suite=task.suite,
     )

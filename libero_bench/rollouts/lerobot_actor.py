@@ -33,7 +33,14 @@ from typing import Any
 import numpy as np
 
 from libero_bench.evaluation.lerobot_policy import SIM_STATE, SIM_STATE_DIM, Inputs, lerobot_config, serve
-from libero_bench.rollouts.actors import ActionQueues, BatchActor, Observations, Start, forward_threads
+from libero_bench.rollouts.actors import (
+    ActionQueues,
+    BatchActor,
+    Observations,
+    Start,
+    chunked_answers,
+    forward_threads,
+)
 from libero_data.errors import InputError
 from libero_data.seeding import policy_noise_seed
 
@@ -117,6 +124,11 @@ class LeRobotActor(BatchActor):
         )
         self.n_obs = int(getattr(config, "n_obs_steps", 1) or 1)
         self.queues = ActionQueues(getattr(config, "n_action_steps", None))
+        self.chunk_size = int(
+            getattr(config, "n_action_steps", None) or getattr(config, "chunk_size", 1) or 1
+        )
+        cameras = {camera for camera, _h, _w in self.inputs.cameras.values()}
+        self.reads = (*sorted(cameras), *(key for key, _width in self.inputs.states.values()))
         self._noise = "noise" in inspect.signature(self.policy.predict_action_chunk).parameters and hasattr(
             config, "horizon"
         )
@@ -130,7 +142,7 @@ class LeRobotActor(BatchActor):
         self._job[slot] = (start.key, start.language)
         self._chunks[slot] = 0
 
-    def end(self, slot: int) -> None:
+    def end(self, slot: int, success: bool | None = None) -> None:
         self.queues.drop(slot)
         for table in (self._history, self._job, self._chunks):
             table.pop(slot, None)
@@ -158,6 +170,9 @@ class LeRobotActor(BatchActor):
             if waiting:
                 self._predict(waiting, _rows(processed, [slots.index(s) for s in waiting], len(slots)))
         return {s: np.asarray(self.queues.pop(s), dtype=np.float32).reshape(-1)[:7] for s in slots}
+
+    def act_chunks(self, observations: Observations) -> dict[int, np.ndarray]:
+        return chunked_answers(self, self.queues, observations)
 
     def _predict(self, waiting: list[int], batch: dict[str, Any]) -> None:
         """One forward pass for the slots in ``waiting``; fills their queues."""

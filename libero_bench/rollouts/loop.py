@@ -129,7 +129,7 @@ class Environments:
                 while todo and free:
                     slot, index = free.popleft(), todo.popleft()
                     job = jobs[index]
-                    actor.begin(slot, Start(job.key, job.language, job.task_emb))
+                    actor.begin(slot, Start(job.key, job.language, job.task_emb, job.init_index, job.suite))
                     starts[slot] = index
                 calls = {}
                 for worker in sorted({owner[s] for s in [*starts, *actions]}):
@@ -147,7 +147,7 @@ class Environments:
                 for slot, result in sorted(ended, key=lambda e: e[0]):
                     index = running.pop(slot)
                     observations.pop(slot, None)
-                    actor.end(slot)
+                    actor.end(slot, result.success)
                     free.append(slot)
                     yield index, result
         except GeneratorExit:

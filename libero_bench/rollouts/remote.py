@@ -2,23 +2,17 @@
 
 :class:`RemoteActor` rolls out here what a server runs on its own machine (a GPU host, another
 virtual environment: openpi's JAX models, OpenVLA-OFT, GR00T, or ``libero-bench serve``). Each
-episode opens its own connection (a server that keeps per-episode state starts afresh with it) and
-reads the server's metadata; each slot whose actions have run out sends its observation, all
-waiting slots at once (a batching server answers them in one pass), and executes the first
-``replan_steps`` actions of the chunk it gets back (openpi's LIBERO client: 5).
+slot whose actions have run out sends its observation, all waiting slots at once (a batching
+server answers them in one pass), and executes the first ``replan_steps`` actions of the chunk it
+gets back (openpi's LIBERO client: 5). What is sent is the protocol's request
+(:mod:`~libero_bench.rollouts.observations`):
 
-The observation sent, as openpi's LIBERO example builds it:
-
-=============================  =============================================================
-``observation/image``          agentview camera, upright, uint8 (S, S, 3): rendered at the
-                               evaluation's image size, resized with padding to ``image_size``
-``observation/wrist_image``    eye-in-hand camera, the same way
-``observation/state``          float32 (8,): end-effector position, axis-angle, gripper qpos
-``prompt``                     the task's instruction
-``observation/joint_position`` float32 (7,), arm joints (DROID's name; LIBERO servers ignore it)
-``observation/gripper_position`` float32 (2,), gripper fingers (likewise)
-``rollout_key``                the rollout's key (``libero-bench serve`` seeds sampling with it)
-=============================  =============================================================
+- ``libero-bench`` (the default protocol's): each episode opens its own connection (a server that
+  keeps per-episode state starts afresh with it); the request carries the rollout's key;
+- ``openpi`` (the standard protocol's): as openpi's current LIBERO client, one connection per slot
+  for every episode, each episode framed by openpi's control messages (``episode_start`` with the
+  suite, the instruction and the episode's number; ``episode_end`` with its success), the request
+  openpi's four entries, and a chunk shorter than ``replan_steps`` an error (openpi asserts it).
 
 A server that cannot be reached, answers with an error (a text frame: its traceback), answers
 nothing within ``timeout`` seconds or closes the connection is a
@@ -33,48 +27,13 @@ from typing import Any
 import numpy as np
 
 from libero_bench.rollouts.actors import ActionQueues, BatchActor, Observations, Start
+from libero_bench.rollouts.observations import libero_bench_request, openpi_request
 from libero_bench.rollouts.wire import pack, unpack
 from libero_data.errors import PolicyServerError
 
-IMAGE, WRIST_IMAGE, STATE, PROMPT = (
-    "observation/image",
-    "observation/wrist_image",
-    "observation/state",
-    "prompt",
-)
-JOINTS, GRIPPER, ROLLOUT_KEY = "observation/joint_position", "observation/gripper_position", "rollout_key"
-
-
-def resize_with_pad(image: np.ndarray, size: int) -> np.ndarray:
-    """``image`` (H, W, 3) uint8 scaled to fit ``size`` x ``size`` (bilinear), centred on black
-    padding, as openpi's client resizes camera images."""
-    from PIL import Image
-
-    h, w = image.shape[:2]
-    if (h, w) == (size, size):
-        return np.ascontiguousarray(image, dtype=np.uint8)
-    scale = size / max(h, w)
-    nh, nw = max(1, round(h * scale)), max(1, round(w * scale))
-    resized = np.asarray(
-        Image.fromarray(np.asarray(image, dtype=np.uint8)).resize((nw, nh), Image.Resampling.BILINEAR)
-    )
-    out = np.zeros((size, size, 3), dtype=np.uint8)
-    top, left = (size - nh) // 2, (size - nw) // 2
-    out[top : top + nh, left : left + nw] = resized
-    return out
-
-
-def request(obs: dict[str, Any] | Any, language: str, key: str, image_size: int) -> dict[str, Any]:
-    """The message a slot sends for an environment observation (see the module docstring)."""
-    return {
-        IMAGE: resize_with_pad(obs["agentview"], image_size),
-        WRIST_IMAGE: resize_with_pad(obs["eye_in_hand"], image_size),
-        STATE: np.asarray(obs["state"], dtype=np.float32),
-        PROMPT: language,
-        JOINTS: np.asarray(obs["joint_pos"], dtype=np.float32),
-        GRIPPER: np.asarray(obs["gripper_state"], dtype=np.float32),
-        ROLLOUT_KEY: key,
-    }
+#: openpi's episode control messages (openpi-client's ``episode_start`` / ``episode_end``).
+CONTROL, ACK = "__ctrl__", "__ack__"
+EPISODE_START, EPISODE_END = "episode_start", "episode_end"
 
 
 def connect(url: str, timeout: float) -> tuple[Any, dict[str, Any]]:
@@ -114,7 +73,13 @@ class RemoteActor(BatchActor):
     """Slots acting through the policy server at ``url`` (see the module docstring)."""
 
     def __init__(
-        self, url: str, *, image_size: int = 224, replan_steps: int = 5, timeout: float = 60.0
+        self,
+        url: str,
+        *,
+        image_size: int = 224,
+        replan_steps: int = 5,
+        timeout: float = 60.0,
+        request: str = "libero-bench",
     ) -> None:
         super().__init__()
         if replan_steps < 1:
@@ -122,28 +87,77 @@ class RemoteActor(BatchActor):
         self.url = url
         self.image_size = image_size
         self.timeout = timeout
+        self.openpi = request == "openpi"
         self.queues = ActionQueues(replan_steps)
         probe, self.metadata = connect(url, timeout)  # unreachable: one sentence before any rollout
         probe.close()
+        horizon = self.metadata.get("action_horizon")
+        if self.openpi and isinstance(horizon, int) and horizon < replan_steps:
+            raise PolicyServerError(
+                f"the policy server at {url} answers {horizon} action(s) per request, fewer than the "
+                f"{replan_steps} of each chunk openpi's LIBERO loop executes"
+            )
         self._connections: dict[int, Any] = {}
         self._start: dict[int, Start] = {}
 
     def begin(self, slot: int, start: Start) -> None:
-        self.end(slot)
-        self._connections[slot], _ = connect(self.url, self.timeout)
+        if not self.openpi:
+            self._disconnect(slot)
+        if slot not in self._connections:
+            self._connections[slot], _ = connect(self.url, self.timeout)
         self._start[slot] = start
         self.queues.clear(slot)
+        if self.openpi:
+            self._control(
+                slot,
+                {
+                    CONTROL: EPISODE_START,
+                    "__experiment__": start.experiment,
+                    "__task__": start.language,
+                    "__episode_id__": start.episode,
+                },
+            )
 
-    def end(self, slot: int) -> None:
-        connection = self._connections.pop(slot, None)
-        if connection is not None:
-            connection.close()
+    def end(self, slot: int, success: bool | None = None) -> None:
+        if self.openpi and slot in self._start and slot in self._connections:
+            self._control(slot, {CONTROL: EPISODE_END, "__success__": bool(success)})
+        else:
+            self._disconnect(slot)
         self._start.pop(slot, None)
         self.queues.drop(slot)
 
     def close(self) -> None:
         for slot in list(self._connections):
-            self.end(slot)
+            self._disconnect(slot)
+
+    def _disconnect(self, slot: int) -> None:
+        connection = self._connections.pop(slot, None)
+        if connection is not None:
+            connection.close()
+
+    def _control(self, slot: int, message: dict[str, Any]) -> None:
+        """Send an episode control message and read its acknowledgement, as openpi's client does."""
+        from websockets.exceptions import ConnectionClosed
+
+        key = self._start[slot].key
+        try:
+            self._connections[slot].send(pack(message))
+            reply = self._connections[slot].recv(timeout=self.timeout)
+        except TimeoutError as exc:
+            raise PolicyServerError(
+                f"the policy server at {self.url} did not acknowledge {message[CONTROL]} of rollout {key} "
+                f"within {self.timeout:g} s"
+            ) from exc
+        except (ConnectionClosed, OSError) as exc:
+            raise PolicyServerError(
+                f"the policy server at {self.url} closed the connection at {message[CONTROL]} of rollout {key} "
+                f"({_reason(exc)})"
+            ) from exc
+        if isinstance(reply, str):
+            raise PolicyServerError(
+                f"the policy server at {self.url} failed on {message[CONTROL]} of rollout {key}: "
+                f"{_reason(Exception(reply))}"
+            )
 
     def act(self, observations: Observations) -> dict[int, np.ndarray]:
         from websockets.exceptions import ConnectionClosed
@@ -154,7 +168,12 @@ class RemoteActor(BatchActor):
         try:
             for slot in waiting:  # every waiting slot's request is out before any answer is read
                 start = self._start[slot]
-                message = request(observations[slot], start.language, start.key, self.image_size)
+                if self.openpi:
+                    message = openpi_request(observations[slot], start.language, self.image_size)
+                else:
+                    message = libero_bench_request(
+                        observations[slot], start.language, start.key, self.image_size
+                    )
                 self._connections[slot].send(pack(message))
                 sent.append(slot)
             for slot in sent:
@@ -173,7 +192,7 @@ class RemoteActor(BatchActor):
             ) from exc
         if sent:
             self.counted(len(sent))
-        return {s: np.asarray(self.queues.pop(s), dtype=np.float32).reshape(-1)[:7] for s in slots}
+        return {s: np.asarray(self.queues.pop(s), dtype=np.float64).reshape(-1)[:7] for s in slots}
 
     def _actions(self, slot: int, reply: bytes | str) -> np.ndarray:
         key = self._start[slot].key
@@ -185,7 +204,7 @@ class RemoteActor(BatchActor):
         actions = message.get("actions") if isinstance(message, dict) else None
         if actions is None:
             raise PolicyServerError(f"the policy server at {self.url} answered rollout {key} without actions")
-        actions = np.asarray(actions, dtype=np.float32)
+        actions = np.asarray(actions, dtype=np.float64)
         if actions.ndim == 1:
             actions = actions[None]
         if actions.ndim != 2 or actions.shape[1] < 7 or not np.all(np.isfinite(actions)):
@@ -193,12 +212,19 @@ class RemoteActor(BatchActor):
                 f"the policy server at {self.url} answered rollout {key} with actions of shape "
                 f"{list(actions.shape)}; a chunk of 7-D finite actions (H, 7) is needed"
             )
+        steps = self.queues.steps or 1
+        if self.openpi and actions.shape[0] < steps:
+            raise PolicyServerError(
+                f"the policy server at {self.url} answered rollout {key} with {actions.shape[0]} action(s); "
+                f"openpi's LIBERO loop executes {steps} of each chunk"
+            )
         return actions
 
     def describe(self) -> dict[str, Any]:
         return {
             "actor": "server",
             "url": self.url,
+            "request": "openpi" if self.openpi else "libero-bench",
             "image_size": self.image_size,
             "replan_steps": self.queues.steps,
             "server_metadata": {

@@ -1,17 +1,26 @@
 """``libero-bench serve``: our policies and LeRobot's behind openpi's websocket protocol.
 
 A GPU machine serves while CPU machines roll out (``libero-bench eval --server``), or any client
-that speaks openpi's protocol (:mod:`~libero_bench.rollouts.wire`) acts with the policy. Each
-connection is one episode: the server keeps its history (a transformer's frames, an LSTM state,
-a chunk's remaining actions, Diffusion Policy's last observations) until the connection closes.
-Requests that arrive together, from any number of connections, go through one batched forward
-pass; each reply is ``{"actions": (1, 7), "server_timing": {...}}``, the action the policy takes
-now, so a client that executes every action it gets (``--replan-steps`` of 1 or more) acts exactly
-as the policy does in a local evaluation.
+that speaks openpi's protocol (:mod:`~libero_bench.rollouts.wire`), openpi's own LIBERO client
+among them, acts with the policy. Requests that arrive together, from any number of connections,
+go through one batched forward pass. Two kinds of client:
 
-Requests are read as :mod:`~libero_bench.rollouts.remote` sends them (openpi's LIBERO keys, plus
-the arm joints and gripper where a policy reads them); a request that cannot be served gets a text
-reply, openpi's way of sending an error, and the connection stays open.
+- **openpi's** (its LIBERO client, and ``libero-bench eval --protocol standard --server``): one
+  connection for many episodes, each framed by ``episode_start`` / ``episode_end`` control
+  messages (acknowledged ``{"__ack__": ...}`` as openpi's server does; an episode boundary resets
+  the policy's history), requests of openpi's four entries. The reply holds the policy's action
+  chunk (``{"actions": (H, 7), "server_timing": {...}}``). A policy that predicts one action per
+  step is refused in one sentence (openpi's loop executes 5 of each chunk), as is a request that
+  lacks an entry the policy reads beyond openpi's four (our runs' policies read the arm joints);
+  the metadata sent at connection says both (``action_horizon``, ``needs``).
+- **libero-bench's** (``libero-bench eval --server`` under its default protocol; its requests
+  carry ``rollout_key``): each connection is one episode, and each reply is the one action the
+  policy takes now (``(1, 7)``), so a client that executes every action it gets acts exactly as
+  the policy does in a local evaluation.
+
+Requests are read by :func:`~libero_bench.rollouts.observations.environment_observation`; a
+request that cannot be served gets a text reply (openpi's way of sending an error: one sentence,
+or the traceback of an unexpected failure), and the connection stays open.
 """
 
 from __future__ import annotations
@@ -28,70 +37,38 @@ from typing import Any
 import numpy as np
 
 from libero_bench.rollouts.actors import BatchActor, Start
-from libero_bench.rollouts.remote import (
-    GRIPPER,
-    IMAGE,
-    JOINTS,
-    PROMPT,
-    ROLLOUT_KEY,
-    STATE,
-    WRIST_IMAGE,
-    resize_with_pad,
+from libero_bench.rollouts.observations import (
+    EXTRA_ENTRIES,
+    OPENPI_KEYS,
+    environment_observation,
 )
+from libero_bench.rollouts.remote import ACK, CONTROL, EPISODE_END, EPISODE_START
 from libero_bench.rollouts.wire import pack, unpack
-from libero_data.errors import InputError
+from libero_data.errors import InputError, LiberoDataError
 
 log = logging.getLogger(__name__)
-
-#: Request entries -> the environment observation a policy actor reads.
-OBSERVATION_KEYS = {
-    IMAGE: "agentview",
-    WRIST_IMAGE: "eye_in_hand",
-    STATE: "state",
-    JOINTS: "joint_pos",
-    GRIPPER: "gripper_state",
-}
 
 
 @dataclass
 class Pending:
-    """A request waiting for the next batch."""
+    """A request waiting for the next batch; ``chunk``: the client executes chunks (openpi's)."""
 
     slot: int
     observation: dict[str, Any]
     prompt: str
     key: str
+    chunk: bool
     reply: asyncio.Future[Any]
 
 
-def environment_observation(message: Any, image_size: int | None) -> tuple[dict[str, Any], str, str | None]:
-    """(observation, prompt, rollout key) of a request; :class:`InputError` naming what is missing."""
-    if not isinstance(message, dict):
-        raise InputError("a request must be a map of observation entries")
-    missing = [k for k in (IMAGE, WRIST_IMAGE, STATE, PROMPT) if k not in message]
-    if missing:
-        raise InputError(f"the request lacks {', '.join(missing)}")
-    obs: dict[str, Any] = {}
-    for entry, key in OBSERVATION_KEYS.items():
-        if entry in message:
-            value = np.asarray(message[entry])
-            if (
-                key in ("agentview", "eye_in_hand")
-                and image_size
-                and value.shape[:2] != (image_size, image_size)
-            ):
-                value = resize_with_pad(value, image_size)
-            obs[key] = value
-    rollout = message.get(ROLLOUT_KEY)
-    return obs, str(message[PROMPT]), None if rollout is None else str(rollout)
-
-
 class PolicyServer:
-    """A :class:`~libero_bench.rollouts.actors.BatchActor` behind openpi's websocket protocol.
+    """A :class:`~libero_bench.rollouts.actors.BatchActor` behind openpi's websocket protocol (see
+    the module docstring).
 
     ``embed`` turns a prompt into the task embedding libero-bench's policies read (None for
     policies that read the instruction itself); ``image_size`` is the camera size the policy
-    reads (images of another size are resized with padding)."""
+    reads (images of another size are resized with padding); ``needs`` are the observations it
+    reads beyond openpi's four entries."""
 
     def __init__(
         self,
@@ -100,12 +77,23 @@ class PolicyServer:
         *,
         embed: Callable[[str], np.ndarray] | None = None,
         image_size: int | None = None,
+        needs: tuple[str, ...] = (),
         gather_s: float = 0.002,
     ) -> None:
         self.actor = actor
-        self.metadata = metadata
         self.embed = embed
         self.image_size = image_size
+        self.needs = needs
+        self.metadata = {
+            **metadata,
+            "action_horizon": int(actor.chunk_size),
+            "inputs": [*OPENPI_KEYS, *(EXTRA_ENTRIES[k] for k in needs)],
+        }
+        if needs:
+            self.metadata["needs"] = (
+                f"this policy also reads {', '.join(EXTRA_ENTRIES[k] for k in needs)}, beyond openpi's LIBERO "
+                "request; requests without it are refused"
+            )
         self.gather_s = gather_s
         self._ids = itertools.count()
         self._pending: list[Pending] = []
@@ -118,7 +106,7 @@ class PolicyServer:
         from websockets.exceptions import ConnectionClosed
 
         assert self._wake is not None
-        slot = next(self._ids)
+        slot = next(self._ids)  # one episode's history: a new one at each episode_start
         loop = asyncio.get_running_loop()
         try:
             await websocket.send(pack(self.metadata))
@@ -126,11 +114,31 @@ class PolicyServer:
                 try:
                     if isinstance(message, str):
                         raise InputError("requests are binary msgpack messages")
-                    obs, prompt, key = environment_observation(unpack(message), self.image_size)
+                    request = unpack(message)
+                    if isinstance(request, dict) and CONTROL in request:
+                        kind = request[CONTROL]
+                        if kind in (EPISODE_START, EPISODE_END):
+                            self._ended.append(slot)  # the episode's history goes with it
+                            slot = next(self._ids)
+                        await websocket.send(
+                            pack({ACK: kind if kind in (EPISODE_START, EPISODE_END) else "ignored"})
+                        )
+                        continue
+                    obs, prompt, key = environment_observation(request, self.image_size, self.needs)
+                    chunk = key is None  # openpi's client: no rollout key, chunks executed
+                    if chunk and self.actor.chunk_size < 2:
+                        raise InputError(
+                            "this policy predicts one action per step, and openpi's LIBERO client executes 5 "
+                            "of each chunk; evaluate it with libero-bench eval --protocol standard (locally) "
+                            "or serve a policy that predicts chunks"
+                        )
+                except (InputError, LiberoDataError) as exc:
+                    await websocket.send(f"{type(exc).__name__}: {exc}")
+                    continue
                 except Exception:
                     await websocket.send(traceback.format_exc())
                     continue
-                pending = Pending(slot, obs, prompt, key or f"connection-{slot}", loop.create_future())
+                pending = Pending(slot, obs, prompt, key or f"connection-{slot}", chunk, loop.create_future())
                 self._pending.append(pending)
                 self._wake.set()
                 await websocket.send(await pending.reply)
@@ -154,7 +162,7 @@ class PolicyServer:
                 continue
             started = time.perf_counter()
             try:
-                actions = await asyncio.to_thread(self._infer, batch)
+                chunks = await asyncio.to_thread(self._infer, batch)
             except Exception:
                 text = traceback.format_exc()
                 log.error("inference failed: %s", text)
@@ -164,11 +172,12 @@ class PolicyServer:
             infer_ms = (time.perf_counter() - started) * 1000
             self.batches.append(len(batch))
             for p in batch:
-                reply = {"actions": actions[p.slot][None], "server_timing": {"infer_ms": infer_ms}}
+                reply = {"actions": chunks[p.slot], "server_timing": {"infer_ms": infer_ms}}
                 p.reply.set_result(pack(reply))
 
     def _infer(self, batch: list[Pending]) -> dict[int, np.ndarray]:
-        """Runs in a thread, one batch at a time: every call on the actor happens here."""
+        """Runs in a thread, one batch at a time: every call on the actor happens here. A client
+        that executes chunks gets the whole chunk; libero-bench's gets the one action taken now."""
         ended, self._ended = self._ended, []
         for slot in ended:
             if slot in self._begun:
@@ -179,7 +188,14 @@ class PolicyServer:
                 emb = self.embed(p.prompt) if self.embed is not None else None
                 self.actor.begin(p.slot, Start(p.key, p.prompt, emb))
                 self._begun.add(p.slot)
-        return self.actor.act({p.slot: p.observation for p in batch})
+        out: dict[int, np.ndarray] = {}
+        chunked = {p.slot: p.observation for p in batch if p.chunk}
+        single = {p.slot: p.observation for p in batch if not p.chunk}
+        if chunked:
+            out.update(self.actor.act_chunks(chunked))
+        if single:
+            out.update({slot: np.asarray(a)[None] for slot, a in self.actor.act(single).items()})
+        return out
 
     async def serve(self, host: str, port: int, ready: Callable[[int], None] | None = None) -> None:
         """Serve until cancelled; ``ready`` gets the port listened on (``port`` 0: one the system chose)."""
@@ -196,45 +212,30 @@ class PolicyServer:
             batcher.cancel()
 
 
-def served_policy(
-    path: str, device: str, view_task: int | None = None
-) -> tuple[BatchActor, dict[str, Any], Callable[[str], np.ndarray] | None, int | None]:
-    """(actor, metadata, prompt embedding, camera size) of what ``libero-bench serve`` serves: a
-    libero-bench run folder (its final checkpoint, in the evaluation view of the task at
-    ``view_task``, default its last) or a LeRobot ``pretrained_model/`` folder."""
-    from pathlib import Path
-
-    from libero_bench.runs.folder import RunFolder
+def served_policy(path: str, device: str, view_task: int | None = None) -> PolicyServer:
+    """What ``libero-bench serve`` serves: a libero-bench run folder (its final checkpoint, in the
+    evaluation view of the task at ``view_task``, default its last) or a LeRobot
+    ``pretrained_model/`` folder (:func:`~libero_bench.rollouts.sources.policy_source`)."""
+    from libero_bench.rollouts.sources import RUN, policy_source
     from libero_data.runtime.versions import versions
 
-    folder = Path(path).resolve()
-    metadata: dict[str, Any] = {"server": "libero-bench", "actions_per_request": 1, "versions": versions()}
-    if RunFolder(folder).is_run():
-        from libero_bench.data.language import encode_tasks
-        from libero_bench.rollouts.actors import PolicyActor
-        from libero_bench.runs.summary import load_run
-        from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
-
-        summary = load_run(folder)
-        config = summary.config
-        last = summary.tasks_done - 1
-        position = last if view_task is None else view_task
-        if not 0 <= position <= last:
-            raise InputError(
-                f"run {folder} has learned tasks 0..{last}; no view of task {position}", field="view_task"
-            )
-        policy, _algo = policy_from_checkpoint(
-            config, kept_checkpoint(RunFolder(folder), config, last), position
-        )
-        policy = policy.to(device)
-        encoder = config["preset"]["language_encoder"]
-        size = int(policy.config.image_size)
-        metadata.update(
-            policy_type=f"{config['algo']} + {config['policy']}", image_size=size, run=str(folder)
-        )
-        return PolicyActor(policy), metadata, lambda prompt: encode_tasks([prompt], encoder)[0], size
-    from libero_bench.rollouts.lerobot_actor import LeRobotActor
-
-    actor = LeRobotActor(folder, device)
-    metadata.update(policy_type=actor.config.type, image_size=actor.inputs.render_size, policy=str(folder))
-    return actor, metadata, None, None
+    source = policy_source(path)
+    if source.kind != RUN and view_task is not None:
+        raise InputError("--view-task is for a run folder's tasks", field="view_task")
+    actor = source.open(device, view_task)
+    metadata: dict[str, Any] = {
+        "server": "libero-bench",
+        "policy_type": source.policy_type,
+        "image_size": source.render_size,
+        "policy": source.ref,
+        "versions": versions(),
+    }
+    embed = source.embed
+    needs = tuple(k for k in source.reads if k in EXTRA_ENTRIES and k != "gripper_state")
+    return PolicyServer(
+        actor,
+        metadata,
+        embed=(lambda prompt: embed([prompt])[0]) if embed is not None else None,
+        image_size=source.render_size if source.kind == RUN else None,
+        needs=needs,
+    )

@@ -47,6 +47,11 @@ LEARNING, PRUNED, AFTER = "learning", "pruned", "after"
 #: held-out sampler placements no demonstration started from (``libero_data.seeding``).
 STORED, HELDOUT = "stored", "heldout"
 STARTS = (STORED, HELDOUT)
+#: The standard protocol's start (libero_bench.rollouts.protocol): episode i from stored init state
+#: i, its fixtures from LIBERO's i-th reset after seeding with 7. Evaluations only, never a run's rounds.
+STANDARD = "standard"
+#: Every kind of start an evaluation reports, in the order its tables show them.
+START_KINDS = (STORED, HELDOUT, STANDARD)
 
 
 def rollout_key(

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import random
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -157,3 +158,48 @@ def policy_from_checkpoint(config: dict[str, Any], checkpoint: Path, position: i
     _load_into(checkpoint, policy, algo, state)
     algo.set_eval_task(position)
     return policy.eval(), algo
+
+
+@dataclass(frozen=True)
+class RunPolicy:
+    """What a run folder holds to act with: its last checkpoint's policy (on a device, in eval
+    mode), in the algorithm's view of the task at ``position``, and the run's config."""
+
+    folder: Path
+    config: dict[str, Any]
+    policy: Any
+    position: int  # the task whose evaluation view it is
+    last: int  # the last task the run finished learning
+
+    @property
+    def name(self) -> str:
+        return f"{self.config['algo']} + {self.config['policy']}"
+
+    def embed(self, prompts: list[str]) -> Any:
+        """Task embeddings of ``prompts`` from the run's language encoder."""
+        from libero_bench.data.language import encode_tasks
+
+        return encode_tasks(prompts, self.config["preset"]["language_encoder"])
+
+
+def load_run_policy(run: str | Path, device: str = "cpu", view_task: int | None = None) -> RunPolicy:
+    """The policy of a libero-bench run folder: its final checkpoint (after the last task it learned;
+    MTL: its one checkpoint) in the evaluation view of the task at ``view_task`` (PackNet's masks;
+    default: the last it learned). One sentence where the run has no finished task, its config or
+    checkpoint does not fit, or the view names a task it has not learned."""
+    from libero_bench.runs.folder import POLICY_FIELDS
+    from libero_bench.runs.summary import load_run
+
+    folder = RunFolder(Path(run).resolve())
+    folder.read_config(needs=POLICY_FIELDS)
+    summary = load_run(folder.root)
+    last = summary.tasks_done - 1
+    position = last if view_task is None else view_task
+    if not 0 <= position <= last:
+        raise InputError(
+            f"run {folder.root} has learned tasks 0..{last}; no view of task {position}", field="view_task"
+        )
+    policy, _algo = policy_from_checkpoint(
+        summary.config, kept_checkpoint(folder, summary.config, last), position
+    )
+    return RunPolicy(folder.root, summary.config, policy.to(device), position, last)

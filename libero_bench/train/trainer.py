@@ -145,9 +145,9 @@ class Trainer:
             tasks = [{k: t[k] for k in ("position", "name", "language")} for t in config["tasks"]]
             results = RunResults.empty(tasks, self.eval_epochs)
             write_json(self.folder.results, results.to_dict())
-        from libero_data.runtime.folder import WorkFolder
+        from libero_bench.rollouts.session import RolloutSession
 
-        WorkFolder(self.folder.work, "run").clean("shards/*.tmp-*")  # an interrupted rollout write
+        RolloutSession(self.folder.root).clear_partial_writes()  # an interrupted rollout write
         return results
 
     def _new_policy(self) -> Policy:

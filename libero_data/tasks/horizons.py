@@ -22,10 +22,13 @@ its suite's limit from this table; a task outside the five suites (a procedural 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from libero_data.errors import InputError
 
 __all__ = [
     "HUMAN_LONGEST",
+    "OPENPI_LIMITS",
     "OTHER_LIMIT",
     "SUITE",
     "SUITE_LIMITS",
@@ -51,6 +54,16 @@ HUMAN_LONGEST: dict[str, int] = {
 #: in ``lerobot/envs/libero.py``, lerobot 0.6.1).
 SUITE_LIMITS: dict[str, int] = {
     "libero_spatial": 280,
+    "libero_object": 280,
+    "libero_goal": 300,
+    "libero_10": 520,
+    "libero_90": 400,
+}
+
+#: The step limits of openpi's LIBERO client (``examples/libero/main.py``), counted after its 10
+#: waiting steps: the standard protocol's (libero_bench.rollouts.protocol).
+OPENPI_LIMITS: dict[str, int] = {
+    "libero_spatial": 220,
     "libero_object": 280,
     "libero_goal": 300,
     "libero_10": 520,
@@ -88,12 +101,16 @@ def parse_step_limit(text: str, *, field: str = "max_steps") -> StepLimit:
     return check_step_limit(text, field=field)
 
 
-def step_limit(limit: StepLimit, suite: str) -> int:
-    """The steps a rollout of a task of ``suite`` may take under ``limit``."""
+def step_limit(limit: StepLimit, suite: str, limits: Mapping[str, int] = SUITE_LIMITS) -> int:
+    """The steps a rollout of a task of ``suite`` may take under ``limit``: a number, or the
+    suite's entry in ``limits`` (a LIBERO-PRO suite takes its base suite's)."""
+    from libero_data.tasks.suites import pro_suite
+
     limit = check_step_limit(limit)
     if isinstance(limit, int):
         return limit
-    return SUITE_LIMITS.get(suite, OTHER_LIMIT)
+    pro = pro_suite(suite)
+    return limits.get(pro.base if pro is not None else suite, OTHER_LIMIT)
 
 
 def limit_text(limit: object) -> str:

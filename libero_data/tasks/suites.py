@@ -234,6 +234,11 @@ def pro_suite(name: str) -> ProSuite | None:
     return None
 
 
+def pro_bases() -> tuple[str, ...]:
+    """The LIBERO suites LIBERO-PRO perturbs."""
+    return tuple(_tables()["pro"]["bases"])
+
+
 def pro_suite_names(root: str | Path | None = None) -> tuple[str, ...]:
     """The LIBERO-PRO suites installed with LIBERO: per base suite its four families (in the
     order of LIBERO-PRO's table), then the position shifts."""

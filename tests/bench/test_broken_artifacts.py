@@ -245,7 +245,9 @@ CASES: dict[str, Case] = {
         lambda p, s: ["serve", p, "--port", "1"],
         "not a safetensors",
     ),
-    "policy: a run folder given to eval": Case("run", lambda r: r, _eval, "run folder"),
+    "run: checkpoint missing (eval)": Case(
+        "run", _remove("checkpoints/task_001.safetensors"), _eval, "is missing"
+    ),
     # evaluation folders being resumed
     "eval: config.json not JSON": Case(
         "eval", _write("config.json", "{"), lambda e, s: [*_eval(s / "policy", s)[:-1], e], "not valid JSON"

@@ -113,7 +113,7 @@ def test_the_sixteen_pro_suites_are_suites() -> None:
             assert all(t.init_states_path is not None and t.init_states_path.is_file() for t in suite.tasks)
             meaning = pro_suite(name)
             assert meaning is not None and meaning.base == base and meaning.family == family
-    assert [pro_suite(f"libero_goal_{f}").column for f in PRO_FAMILIES] == ["Obj", "Pos", "Sem", "Task"]
+    assert [pro_suite(f"libero_goal_{f}").column for f in PRO_FAMILIES] == ["Obj", "Pos", "Sem", "Task"]  # type: ignore[union-attr]
     shifts = [n for n in names if "_temp_" in n]
     assert len(shifts) == 10 and pro_suite(shifts[0]).column == "Pos"  # type: ignore[union-attr]
     assert get_task("libero_goal_swap/3").name == get_suite("libero_goal").task(3).name

@@ -1,0 +1,236 @@
+"""The standard protocol is openpi's LIBERO client loop, request for request: checked against that
+loop rebuilt from its documented steps (benchmarks/openpi_loop.py) on LIBERO's own environment."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
+from pathlib import Path
+from typing import Any
+
+import datasets
+import numpy as np
+import pytest
+from lerobot_policies import save_policy
+
+from benchmarks.openpi_loop import Client, RecordingServer, openpi_resize, run_openpi_loop
+from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy
+from libero_bench.rollouts.loop import Execution
+from libero_data.runtime.jobs import Executor
+from libero_data.tasks import get_task
+
+OPENPI_KEYS = {"observation/image", "observation/wrist_image", "observation/state", "prompt"}
+#: A task with two fixtures (a cabinet and a wine rack) placed by LIBERO's resets and an articulated
+#: object whose sampler list LIBERO grows on every reset: what episode i's scene depends on.
+TASK = "libero_10/3"
+
+
+def test_axis_angle_is_robosuites_across_w_zero() -> None:
+    from libero_data.sim.imports import import_libero
+
+    import_libero()  # robosuite without its log file
+    from robosuite.utils.transform_utils import quat2axisangle
+
+    from libero_data.sim.libero_loop import libero_axis_angle
+    from libero_data.sim.rotations import quat_to_axis_angle
+
+    axis = np.array([0.6, -0.8, 0.0])
+
+    def quat(w: float) -> np.ndarray:
+        return np.concatenate([axis * np.sqrt(1.0 - w * w), [w]])
+
+    for w in (0.3, 1e-3, 1e-7, 0.0, -1e-7, -1e-3, -0.3):
+        np.testing.assert_array_equal(libero_axis_angle(quat(w)), quat2axisangle(quat(w).copy()))
+    # The gripper-down pose: as w crosses zero the angle passes pi about the same axis.
+    before, after = libero_axis_angle(quat(1e-7)), libero_axis_angle(quat(-1e-7))
+    assert np.linalg.norm(after - before) < 1e-6
+    assert np.isclose(np.linalg.norm(before), np.pi, atol=1e-6)
+    # Our datasets' convention folds the angle to [0, pi]: there the vector flips, a 2-pi jump.
+    folded_before, folded_after = quat_to_axis_angle(quat(1e-7)), quat_to_axis_angle(quat(-1e-7))
+    assert np.linalg.norm(folded_after - folded_before) > 6.0
+    assert np.zeros(3) == pytest.approx(libero_axis_angle(np.array([0.0, 0.0, 0.0, 1.0])))
+
+
+@pytest.mark.parametrize("shape", [(256, 256), (200, 256), (256, 131), (224, 224)])
+def test_images_are_resized_as_openpi_client_resizes_them(shape: tuple[int, int]) -> None:
+    from libero_bench.rollouts.observations import resize_with_pad
+
+    image = np.random.default_rng(0).integers(0, 256, size=(*shape, 3), dtype=np.uint8)
+    np.testing.assert_array_equal(resize_with_pad(image, 224), openpi_resize(image, 224))
+
+
+@pytest.mark.sim
+def test_the_standard_protocol_sends_what_openpis_loop_sends(tmp_path: Path) -> None:
+    task = get_task(TASK)
+    steps, episodes = 12, 3
+    server = RecordingServer()
+    with server.running():
+        reference = run_openpi_loop(server.url, task, episodes, steps)
+        theirs, their_controls = dict(server.requests), list(server.controls)
+        server.requests.clear()
+        server.controls.clear()
+        request = EvalRequest(server.url, (TASK,), protocol="standard", trials=episodes, max_steps=steps)
+        evaluate_policy(request, tmp_path / "eval", execution=Execution(Executor("local", 2)))
+        ours, our_controls = dict(server.requests), list(server.controls)
+    assert sorted(ours) == sorted(theirs) == list(range(episodes))
+    for episode in range(episodes):
+        assert len(ours[episode]) == len(theirs[episode]) == 3  # 12 steps, 5 actions per chunk
+        for mine, reference_request in zip(ours[episode], theirs[episode], strict=True):
+            assert set(mine) == set(reference_request) == OPENPI_KEYS
+            for key in ("observation/image", "observation/wrist_image"):
+                assert mine[key].shape == (224, 224, 3) and mine[key].dtype == np.uint8
+                np.testing.assert_array_equal(mine[key], reference_request[key])
+            assert mine["observation/state"].dtype == reference_request["observation/state"].dtype
+            np.testing.assert_allclose(
+                mine["observation/state"], reference_request["observation/state"], atol=1e-6
+            )
+            assert mine["prompt"] == reference_request["prompt"] == task.language
+
+    # openpi's episode messages: the same, episode for episode (two workers may interleave them).
+    def starts_of(controls: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return sorted(
+            (c for c in controls if c["__ctrl__"] == "episode_start"), key=lambda c: c["__episode_id__"]
+        )
+
+    starts = starts_of(our_controls)
+    assert starts == starts_of(their_controls)
+    assert {c["__experiment__"] for c in starts} == {"libero_10"}
+    records = json.loads((tmp_path / "eval" / "results.json").read_text())["rollouts"]
+    assert [r["success"] for r in sorted(records, key=lambda r: r["init_index"])] == [
+        e["success"] for e in reference
+    ]
+    assert {(r["start"], r["env_seed"]) for r in records} == {("standard", 7)}
+    report = (tmp_path / "eval" / "report.md").read_text()
+    assert "**not the standard**" in report and "a step limit of 12 instead of the suite's" in report
+
+
+@contextmanager
+def serving(policy: Path) -> Iterator[str]:
+    """``libero-bench serve`` of ``policy`` in this process, on a port the system chose."""
+    from libero_bench.rollouts.server import served_policy
+
+    server = served_policy(str(policy), "cpu")
+    ready = threading.Event()
+    url: list[str] = []
+    loop = asyncio.new_event_loop()
+
+    def bound(port: int) -> None:
+        url.append(f"ws://127.0.0.1:{port}")
+        ready.set()
+
+    def run() -> None:
+        task = loop.create_task(server.serve("127.0.0.1", 0, ready=bound))
+        with suppress(asyncio.CancelledError):
+            loop.run_until_complete(task)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    assert ready.wait(60), "the server did not start"
+    try:
+        yield url[0]
+    finally:
+        for pending in asyncio.all_tasks(loop):
+            loop.call_soon_threadsafe(pending.cancel)
+        thread.join(30)
+        server.actor.close()
+
+
+def _executed(folder: Path) -> dict[int, np.ndarray]:
+    frames = datasets.load_dataset(str(folder / "rollouts"), split="train")
+    by_episode: dict[int, list[Any]] = {}
+    for episode, action in zip(frames["episode_index"], frames["action"], strict=True):
+        by_episode.setdefault(int(episode), []).append(action)
+    return {k: np.asarray(v) for k, v in by_episode.items()}
+
+
+@pytest.mark.sim
+def test_openpis_loop_against_libero_bench_serve_acts_as_the_standard_protocol_locally(
+    tmp_path: Path,
+) -> None:
+    policy = save_policy("act", tmp_path / "act")  # predicts chunks of 5
+    task = get_task("libero_object/0")
+    steps = 8
+    with serving(policy) as url:
+        metadata = Client(url).metadata
+        assert metadata["action_horizon"] == 5
+        assert metadata["inputs"] == [
+            "observation/image",
+            "observation/wrist_image",
+            "observation/state",
+            "prompt",
+        ]
+        served = run_openpi_loop(url, task, 2, steps)
+    # Each episode framed by openpi's control messages, acknowledged as openpi's server does.
+    assert [e["acks"] for e in served] == [[{"__ack__": "episode_start"}, {"__ack__": "episode_end"}]] * 2
+    local = EvalRequest(str(policy), ("libero_object/0",), protocol="standard", trials=2, max_steps=steps)
+    evaluate_policy(local, tmp_path / "local", execution=Execution(batch_size=2))
+    here = _executed(tmp_path / "local")
+    for episode, run in enumerate(served):
+        assert len(run["actions"]) == steps
+        np.testing.assert_allclose(np.clip(run["actions"], -1, 1), here[episode], atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("chunk", "needs", "message", "reply"),
+    [
+        (1, (), {}, "predicts one action per step"),
+        (5, ("joint_pos",), {}, "also reads observation/joint_position, which the request lacks"),
+        (5, (), {"__ctrl__": "episode_start", "__episode_id__": 0}, None),
+    ],
+)
+def test_the_server_refuses_what_openpis_client_cannot_use_in_one_sentence(
+    chunk: int, needs: tuple[str, ...], message: dict[str, Any], reply: str | None
+) -> None:
+    from libero_bench.rollouts.actors import BatchActor
+    from libero_bench.rollouts.server import PolicyServer
+    from libero_bench.rollouts.wire import pack, unpack
+
+    class Still(BatchActor):
+        chunk_size = chunk
+
+        def begin(self, slot: int, start: Any) -> None:
+            pass
+
+        def act(self, observations: Any) -> dict[int, np.ndarray]:
+            return {s: np.zeros(7) for s in observations}
+
+    server = PolicyServer(Still(), {"policy_type": "still"}, needs=needs)
+    request = message or {
+        "observation/image": np.zeros((224, 224, 3), np.uint8),
+        "observation/wrist_image": np.zeros((224, 224, 3), np.uint8),
+        "observation/state": np.zeros(8),
+        "prompt": "do it",
+    }
+    answers: list[Any] = []
+
+    class Socket:
+        def __init__(self) -> None:
+            self.inbox = [pack(request)]
+
+        async def send(self, data: Any) -> None:
+            answers.append(data if isinstance(data, str) else unpack(data))
+
+        def __aiter__(self) -> Any:
+            return self
+
+        async def __anext__(self) -> Any:
+            if not self.inbox:
+                raise StopAsyncIteration
+            return self.inbox.pop()
+
+    async def talk() -> None:
+        server._wake = asyncio.Event()
+        await server.handler(Socket())
+
+    asyncio.run(talk())
+    metadata, answer = answers
+    assert metadata["action_horizon"] == chunk
+    if reply is None:
+        assert answer == {"__ack__": "episode_start"}
+    else:
+        assert isinstance(answer, str) and reply in answer and "\n" not in answer
+    if needs:
+        assert "observation/joint_position" in metadata["inputs"] and "joint_position" in metadata["needs"]
