@@ -10,13 +10,19 @@ import typer
 
 from libero_bench.cli.options import (
     BatchSize,
+    Benchmark,
     Device,
     EnvWorkers,
+    EvalTasks,
+    HeldoutStarts,
     KeepRollouts,
     MaxSteps,
+    ProtocolName,
     ReplanSteps,
     SentImageSize,
     Server,
+    StoredStarts,
+    Trials,
     policy_or_server,
 )
 from libero_data.cli.common import (
@@ -40,53 +46,15 @@ def eval_cmd(
             "folder (its final checkpoint), or --server."
         ),
     ] = None,
-    tasks: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--tasks",
-            "-t",
-            help="Tasks (libero_object/0, suite/name, a .bddl file), suites (libero_object) or suite folders "
-            "made by libero-data (procedural tasks, variants); repeat or comma-separate.",
-        ),
-    ] = None,
+    tasks: EvalTasks = None,
     out: Annotated[
         Path | None, typer.Option("--out", "-o", help="Evaluation folder (created; an existing one resumes).")
     ] = None,
-    stored: Annotated[
-        int, typer.Option("--stored", help="Rollouts per task from LIBERO's stored init states.", min=0)
-    ] = 20,
-    heldout: Annotated[
-        int,
-        typer.Option(
-            "--heldout",
-            help="Rollouts per task from held-out placements no demonstration started from.",
-            min=0,
-        ),
-    ] = 20,
-    protocol: Annotated[
-        str,
-        typer.Option(
-            "--protocol",
-            help="libero-bench: stored and held-out starts (--stored, --heldout), intervals, paired tests. "
-            "standard: LIBERO's evaluation as openpi's LIBERO client runs it, request for request (--trials "
-            "episodes per task from stored init states 0..N-1, fixtures as LIBERO's resets place them after "
-            "seed 7, 10 waiting steps, the suite's limit 220/280/300/520/400, 256 px cameras sent as 224 "
-            "padded, replan 5): the number papers report.",
-        ),
-    ] = "libero-bench",
-    trials: Annotated[
-        int,
-        typer.Option("--trials", help="--protocol standard: episodes per task (openpi: 50).", min=1, max=50),
-    ] = 50,
-    benchmark: Annotated[
-        str | None,
-        typer.Option(
-            "--benchmark",
-            help="libero-pro: the standard protocol over each base suite in --tasks (or tasks of it) and its "
-            "four LIBERO-PRO families (object, swap, lan, task), and LIBERO-PRO's table (original, Obj, Pos, "
-            "Sem, Task) with n and Wilson intervals; --trials per task.",
-        ),
-    ] = None,
+    stored: StoredStarts = 20,
+    heldout: HeldoutStarts = 20,
+    protocol: ProtocolName = "libero-bench",
+    trials: Trials = 50,
+    benchmark: Benchmark = None,
     max_steps: MaxSteps = "suite",
     server: Server = None,
     device: Device = None,

@@ -23,6 +23,8 @@ from libero_data.tasks.horizons import SUITE, StepLimit
 
 BENCHMARK = "libero-pro"
 ORIGINAL = "original"
+#: LIBERO-PRO's table, column by column.
+COLUMNS = (ORIGINAL, "Obj", "Pos", "Sem", "Task")
 
 
 def pro_plan(refs: Sequence[str]) -> dict[str, list[str]]:
@@ -128,11 +130,12 @@ def evaluate_libero_pro(
         "policy": source.ref,
         "policy_type": source.policy_type,
         "trials_per_task": trials,
+        "columns": list(COLUMNS),
         "tasks": {base: plan[base] or "all" for base in plan},
         "rows": rows,
         "all": {
             column: _pooled([r["columns"][column] for r in rows if column in r["columns"]])
-            for column in (ORIGINAL, "Obj", "Pos", "Sem", "Task")
+            for column in COLUMNS
         }
         | {"perturbed": _pooled([r["perturbed"] for r in rows])},
         "standard": all(c["standard"] for r in rows for c in r["columns"].values()),
@@ -158,7 +161,7 @@ def pro_markdown(table: dict[str, Any]) -> str:
             return "–"
         return f"{rate['rate']:.0%} ({rate['successes']}/{rate['n']}, {rate['low']:.0%}–{rate['high']:.0%})"
 
-    columns = [ORIGINAL, "Obj", "Pos", "Sem", "Task"]
+    columns = list(COLUMNS)
     lines = [
         f"# LIBERO-PRO: the {table['policy_type']} policy",
         "",
@@ -195,7 +198,7 @@ def pro_chart(table: dict[str, Any], path: Path) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    columns = [ORIGINAL, "Obj", "Pos", "Sem", "Task"]
+    columns = list(COLUMNS)
     rows = table["rows"]
     width = 0.8 / len(columns)
     fig, ax = plt.subplots(figsize=(2.0 + 1.6 * len(rows), 3.2), dpi=120)

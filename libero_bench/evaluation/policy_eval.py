@@ -243,26 +243,7 @@ def evaluate_policy(
         request.policy, request.image_size, request.replan_steps, protocol.request
     )
     tasks = resolve_tasks(request.tasks)
-    try:
-        dataset, starts = source.training_starts()
-    except LiberoDataError:
-        if HELDOUT in request.counts() and request.heldout:
-            raise  # held-out placements must avoid the training data's: it has to be found
-        dataset, starts = None, {}
-    embeddings = (
-        source.embed([t.language for t in tasks])
-        if source.embed is not None
-        else np.zeros((len(tasks), 1), dtype=np.float32)
-    )
-    eval_tasks = [
-        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1], embeddings[i])
-        for i, t in enumerate(tasks)
-    ]
-    if heldout_seeds:
-        eval_tasks = [
-            dataclasses.replace(e, heldout=tuple(heldout_seeds[e.name])) if e.name in heldout_seeds else e
-            for e in eval_tasks
-        ]
+    dataset, starts, eval_tasks = _eval_tasks(request, source, tasks, heldout_seeds)
     width = max(
         len(e.init_states[0]) if e.init_states is not None else state_width(t)
         for e, t in zip(eval_tasks, tasks, strict=True)
@@ -309,8 +290,7 @@ def evaluate_policy(
             lambda job, result: rollout_record(job, result, task_position=job.tags["task_position"]),
             on_result,
         )
-    records = [session.records[k] for k in sorted(session.records)]
-    summary = summarize_eval(settings, records, starts)
+    summary = summarize_eval(settings, [session.records[k] for k in sorted(session.records)], starts)
     if jobs or not session.joined:
         session.join(
             _rollouts_meta(session.root, settings),
@@ -322,6 +302,37 @@ def evaluate_policy(
     chart(summary, session.root / "success.png")
     session.clean(keep_work)
     return summary
+
+
+def _eval_tasks(
+    request: EvalRequest,
+    source: PolicySource,
+    tasks: list[Any],
+    heldout_seeds: Mapping[str, Sequence[int]] | None,
+) -> tuple[str | None, dict[str, tuple[set[int], set[int]]], list[EvalTask]]:
+    """The policy's training data and starts, and how each task is rolled out (its embedding, its
+    held-out placements: ``heldout_seeds`` where given, else seeds no demonstration started from)."""
+    try:
+        dataset, starts = source.training_starts()
+    except LiberoDataError:
+        if HELDOUT in request.counts() and request.heldout:
+            raise  # held-out placements must avoid the training data's: it has to be found
+        dataset, starts = None, {}
+    embeddings = (
+        source.embed([t.language for t in tasks])
+        if source.embed is not None
+        else np.zeros((len(tasks), 1), dtype=np.float32)
+    )
+    eval_tasks = [
+        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1], embeddings[i])
+        for i, t in enumerate(tasks)
+    ]
+    if heldout_seeds:
+        eval_tasks = [
+            dataclasses.replace(e, heldout=tuple(heldout_seeds[e.name])) if e.name in heldout_seeds else e
+            for e in eval_tasks
+        ]
+    return dataset, starts, eval_tasks
 
 
 def _rollouts_meta(root: Path, settings: dict[str, Any]) -> dict[str, Any]:

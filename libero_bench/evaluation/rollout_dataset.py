@@ -1,4 +1,4 @@
-"""The rollout dataset of a run: every evaluation rollout joined into one LeRobot dataset.
+"""The rollout dataset of an evaluation or a run: its rollouts joined into one LeRobot dataset.
 
 Each rollout was written as a one-episode shard by the job that ran it
 (:mod:`libero_bench.rollouts.episodes`); :func:`build_rollout_dataset` joins them, in
@@ -10,14 +10,9 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from libero_bench.runs.folder import RunFolder, RunResults
 from libero_data.errors import RunError
-
-if TYPE_CHECKING:
-    from libero_bench.rollouts.jobs import EvalTask
-    from libero_bench.train.plan import RunPlan
 
 ROLLOUT_CARD = """---
 license: mit
@@ -102,36 +97,3 @@ def build_rollout_dataset(
     if old.exists():
         shutil.rmtree(old)
     return len(shards)
-
-
-def collect_run_rollouts(
-    folder: RunFolder, plan: RunPlan, results: RunResults, tasks: Sequence[EvalTask]
-) -> int:
-    """Join every rollout of a run's ``results`` into ``RUN/rollouts``; returns the episode count."""
-    import logging
-    import time
-
-    from libero_bench.rollouts.session import RolloutSession
-
-    session = RolloutSession(folder.root)
-    session.records = {r["key"]: r for r in results.rollouts}
-    meta = {
-        "run": folder.root.name,
-        "algo": plan.request.algo,
-        "policy": plan.request.policy,
-        "preset": plan.preset.name,
-        "seed": plan.seed,
-        "request": {"repo_id": "libero-bench/rollouts", "suite": plan.source.suite},
-        "sim_state_width": plan.source.sim_state_width,
-        "tasks": [
-            {"name": t.name, "language": t.language, "index": t.suite_index, "position": i}
-            for i, t in enumerate(plan.tasks)
-        ],
-    }
-    started = time.perf_counter()
-    count = session.join(meta, {t.name: Path(t.env_ref).read_text() for t in tasks})
-    folder.append_timing(
-        {"what": "collect_rollouts", "episodes": count, "seconds": round(time.perf_counter() - started, 3)}
-    )
-    logging.getLogger(__name__).info("rollout dataset: %d episodes in %s", count, folder.rollouts)
-    return count

@@ -53,6 +53,7 @@ class Episode:
     started: float
     frames: list[dict[str, Any]] = field(default_factory=list)
     success: list[bool] = field(default_factory=list)
+    phases: dict[str, float] = field(default_factory=lambda: {"build_s": 0.0, "reset_s": 0.0, "step_s": 0.0})
 
 
 class EpisodeHost:
@@ -104,12 +105,15 @@ class EpisodeHost:
             raise RuntimeError(f"slot {slot} is still running {self.running[slot].job.key}")
         started = time.perf_counter()
         env = self.environment(slot, job)
+        built = time.perf_counter()
         if job.libero_loop:
             assert job.init_state is not None, "a standard start has a stored init state"
             obs = env.reset(job.init_state, job.init_index, settle=job.settle)
         else:
             obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
-        self.running[slot] = Episode(job, env, obs, started)
+        episode = self.running[slot] = Episode(job, env, obs, started)
+        episode.phases["build_s"] = built - started
+        episode.phases["reset_s"] = time.perf_counter() - built
         return policy_view(obs)
 
     def step(self, slot: int, action: np.ndarray) -> Reply:
@@ -119,7 +123,9 @@ class EpisodeHost:
         frame = policy_view(episode.obs)
         frame["action"] = action.astype(np.float32)
         episode.frames.append(frame)
+        stepped = time.perf_counter()
         episode.obs, ok = episode.env.step(action)
+        episode.phases["step_s"] += time.perf_counter() - stepped
         episode.success.append(bool(ok))
         if ok or len(episode.frames) >= episode.job.max_steps:
             del self.running[slot]
@@ -135,6 +141,7 @@ class EpisodeHost:
         from libero_data.runtime.memory import release_free_memory
 
         job, frames, success = episode.job, episode.frames, episode.success
+        storing = time.perf_counter()
         reached = bool(success and success[-1])
         tags = {**job.tags, "success": reached, "steps": len(frames), "task_name": job.task_name}
         write_frames(
@@ -158,7 +165,9 @@ class EpisodeHost:
         self.ctx.ship(job.shard_dir)
         self.ctx.ship(job.rrd_path)
         release_free_memory()  # between episodes, as the job runner's workers do
-        return RolloutResult(job.key, reached, len(frames), time.perf_counter() - episode.started)
+        done = time.perf_counter()
+        phases = {**episode.phases, "store_s": done - storing}
+        return RolloutResult(job.key, reached, len(frames), done - episode.started, phases)
 
     def abandon(self) -> None:
         """Forget the running episodes (an interrupted evaluation: they are run again on resume)."""

@@ -92,10 +92,14 @@ class RolloutJob:
 
 @dataclass(frozen=True)
 class RolloutResult:
+    """A finished rollout; ``phases`` are the worker's seconds in each phase of it (building its
+    environment, resetting it, stepping it, storing the episode)."""
+
     key: str
     success: bool
     steps: int
     seconds: float
+    phases: Mapping[str, float] = field(default_factory=dict)
 
 
 def make_job(

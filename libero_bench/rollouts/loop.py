@@ -16,6 +16,7 @@ batched matrix product may sum in another order), which a contact-rich episode c
 from __future__ import annotations
 
 import logging
+import time
 from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -81,6 +82,8 @@ class Environments:
         self.root = Path(root)
         self.batch_size = batch_size
         self._pool: ActorPool | None = None
+        #: The driver's seconds: starting the workers, in the policy, waiting for the workers.
+        self.timing = {"start_s": 0.0, "policy_s": 0.0, "workers_s": 0.0}
 
     def __enter__(self) -> Environments:
         return self
@@ -98,7 +101,9 @@ class Environments:
             from libero_bench.rollouts.episodes import make_host
             from libero_data.runtime.actors import ActorPool
 
+            started = time.perf_counter()
             self._pool = ActorPool(self.executor, self.root, make_host)
+            self.timing["start_s"] += time.perf_counter() - started
         return self._pool
 
     def worker_pids(self) -> list[int]:
@@ -124,7 +129,9 @@ class Environments:
         observations: dict[int, Any] = {}
         try:
             while todo or running:
+                asked = time.perf_counter()
                 actions = actor.act(observations) if observations else {}
+                self.timing["policy_s"] += time.perf_counter() - asked
                 starts: dict[int, int] = {}
                 while todo and free:
                     slot, index = free.popleft(), todo.popleft()
@@ -138,7 +145,10 @@ class Environments:
                     calls[worker] = ("advance", (mine_starts, mine_actions))
                 running.update(starts)
                 ended = []
-                for replies in pool.call(calls).values():
+                waited = time.perf_counter()
+                answers = pool.call(calls)
+                self.timing["workers_s"] += time.perf_counter() - waited
+                for replies in answers.values():
                     for slot, (obs, result) in replies.items():
                         if result is None:
                             observations[slot] = obs

@@ -18,6 +18,7 @@ policy for all), and a record per rollout (:func:`rollout_record` plus what it a
 from __future__ import annotations
 
 import shutil
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -116,20 +117,30 @@ class RolloutSession:
             return None
         device = execution.policy_device()
         session: dict[str, Any] = {"rollouts": 0, "forwards": 0}
+        phases: dict[str, float] = {}
         self.sessions.append(session)
+        started = time.perf_counter()
         with execution.open(self.root) as environments:
             session.update(environments.describe())
             for opener, jobs in groups:
+                opened = time.perf_counter()
                 actor = opener(device)
+                phases["open_policy_s"] = phases.get("open_policy_s", 0.0) + time.perf_counter() - opened
                 try:
                     session.update(actor.describe())
                     for job, result in roll_out(environments, actor, jobs, on_result):
                         self.records[job.key] = record(job, result)
                         session["rollouts"] += 1
+                        for name, seconds in result.phases.items():
+                            phases[name] = phases.get(name, 0.0) + seconds
                         self.save(complete=False)
                 finally:
                     session["forwards"] += actor.forwards
                     actor.close()
+            phases.update(environments.timing)
+        phases["session_s"] = time.perf_counter() - started
+        # where the time went: the driver's phases, and the workers' summed over rollouts
+        session["phases"] = {name: round(seconds, 3) for name, seconds in sorted(phases.items())}
         return session
 
     def save(self, *, complete: bool, **extra: Any) -> None:
@@ -157,6 +168,7 @@ class RolloutSession:
         missing = [k for k in keys if not (self.folder.shard(k) / "episode.json").is_file()]
         if missing:
             raise RunError(f"{self.root}: rollout {missing[0]} is missing from {self.folder.shards}")
+        started = time.perf_counter()
         count = build_rollout_dataset(
             [self.folder.shard(k) for k in keys],
             self.folder.rollouts,
@@ -165,6 +177,8 @@ class RolloutSession:
             work_dir=self.folder.work,
         )
         self.joined = True
+        if self.sessions:
+            self.sessions[-1].setdefault("phases", {})["join_s"] = round(time.perf_counter() - started, 3)
         return count
 
     def clean(self, keep_work: bool = False) -> None:

@@ -119,6 +119,22 @@ class RunPlan:
             seeds |= self.mix.starts(position)[1]
         return frozenset(seeds)
 
+    def rollouts_meta(self, run: str) -> dict[str, Any]:
+        """What the run's rollout dataset says of itself (``run``: the run folder's name)."""
+        return {
+            "run": run,
+            "algo": self.request.algo,
+            "policy": self.request.policy,
+            "preset": self.preset.name,
+            "seed": self.seed,
+            "request": {"repo_id": "libero-bench/rollouts", "suite": self.source.suite},
+            "sim_state_width": self.source.sim_state_width,
+            "tasks": [
+                {"name": t.name, "language": t.language, "index": t.suite_index, "position": i}
+                for i, t in enumerate(self.tasks)
+            ],
+        }
+
     def config(self, options: RunOptions) -> dict[str, Any]:
         """The run's ``config.json`` (everything but ``runtime`` must match to resume)."""
         from libero_data.runtime.versions import versions

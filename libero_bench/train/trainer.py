@@ -401,9 +401,23 @@ class Trainer:
     # -- the rollout dataset -------------------------------------------------------------------------
     def collect_rollouts(self, results: RunResults) -> None:
         """Join every rollout of ``results`` into ``RUN/rollouts`` (one LeRobot dataset)."""
-        from libero_bench.evaluation.rollout_dataset import collect_run_rollouts
+        from libero_bench.rollouts.session import RolloutSession
 
-        collect_run_rollouts(self.folder, self.plan, results, self.rounds.eval_tasks())
+        session = RolloutSession(self.folder.root)
+        session.records = {r["key"]: r for r in results.rollouts}
+        started = time.perf_counter()
+        count = session.join(
+            self.plan.rollouts_meta(self.folder.root.name),
+            {t.name: Path(t.env_ref).read_text() for t in self.rounds.eval_tasks()},
+        )
+        self.folder.append_timing(
+            {
+                "what": "collect_rollouts",
+                "episodes": count,
+                "seconds": round(time.perf_counter() - started, 3),
+            }
+        )
+        logger.info("rollout dataset: %d episodes in %s", count, self.folder.rollouts)
 
 
 def run_lifelong(

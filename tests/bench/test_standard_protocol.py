@@ -234,3 +234,50 @@ def test_the_server_refuses_what_openpis_client_cannot_use_in_one_sentence(
         assert isinstance(answer, str) and reply in answer and "\n" not in answer
     if needs:
         assert "observation/joint_position" in metadata["inputs"] and "joint_position" in metadata["needs"]
+
+
+@pytest.mark.sim
+def test_eval_benchmark_libero_pro_writes_its_table(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    server = RecordingServer()
+    with server.running():
+        command = [sys.executable, "-m", "libero_bench.cli", "eval", "--server", server.url]
+        command += [
+            "--benchmark",
+            "libero-pro",
+            "--tasks",
+            "libero_goal/0",
+            "--trials",
+            "1",
+            "--max-steps",
+            "5",
+        ]
+        command += ["--workers", "2", "--out", str(tmp_path / "pro")]
+        done = subprocess.run(
+            command,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+    assert done.returncode == 0, done.stderr[-3000:]
+    table = json.loads((tmp_path / "pro" / "libero_pro.json").read_text())
+    (row,) = table["rows"]
+    assert row["suite"] == "libero_goal"
+    assert table["columns"] == ["original", "Obj", "Pos", "Sem", "Task"]
+    assert [row["columns"][c]["suite"] for c in table["columns"]] == [
+        "libero_goal",
+        "libero_goal_object",
+        "libero_goal_swap",
+        "libero_goal_lan",
+        "libero_goal_task",
+    ]
+    assert all(c["n"] == 1 for c in row["columns"].values()) and row["perturbed"]["n"] == 4
+    assert not table["standard"]  # 5 steps instead of the suite's 300
+    text = (tmp_path / "pro" / "libero_pro.md").read_text()
+    assert "| libero_goal |" in text and "| suite | original | Obj | Pos | Sem | Task |" in text
+    # Each perturbed task's own instruction: the paraphrase for Sem, the new task's for Task.
+    prompts = {r["prompt"] for requests in server.requests.values() for r in requests}
+    assert {"open the middle drawer of the cabinet", "open the cabinet\u2019s middle drawer"} <= prompts
+    assert get_task("libero_goal_task/0").language in prompts
