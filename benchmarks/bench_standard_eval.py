@@ -87,7 +87,13 @@ def _timed(command: list[str]) -> float:
 
 
 def _eval(
-    url: str, args: argparse.Namespace, out: Path, workers: int, quality: str, trials: int
+    url: str,
+    args: argparse.Namespace,
+    out: Path,
+    workers: int,
+    quality: str,
+    trials: int,
+    batch: int | None = None,
 ) -> list[str]:
     return [
         str(Path(sys.executable).parent / "libero-bench"),
@@ -108,6 +114,7 @@ def _eval(
         quality,
         "--out",
         str(out),
+        *(["--batch-size", str(batch)] if batch else []),
     ]
 
 
@@ -121,8 +128,10 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--task", default="libero_object/0")
-    parser.add_argument("--episodes", type=int, default=6)
-    parser.add_argument("--max-steps", type=int, default=60)
+    parser.add_argument("--episodes", type=int, default=12)
+    parser.add_argument(
+        "--max-steps", type=int, default=280, help="Steps after the waits (libero_object's limit: 280)."
+    )
     parser.add_argument("--latency", type=float, default=0.07)
     parser.add_argument("--chunk", type=int, default=10)
     parser.add_argument(
@@ -170,15 +179,21 @@ def main() -> None:
                 ]
             )
             rows.append(("openpi's loop (sequential, LIBERO's env)", seconds, None))
-            for label, workers, quality in (
-                ("eval --protocol standard, 1 worker", 1, "full"),
-                ("eval --protocol standard, 2 workers", 2, "full"),
-                ("eval --protocol standard, 2 workers, fast (not the standard)", 2, "fast"),
+            for label, workers, quality, batch in (
+                ("eval --protocol standard, 1 worker", 1, "full", None),
+                ("eval --protocol standard, 2 workers", 2, "full", None),
+                ("eval --protocol standard, 2 workers, 4 environments", 2, "full", 4),
+                ("eval --protocol standard, 2 workers, fast (not the standard)", 2, "fast", None),
+                (
+                    "eval --protocol standard, 2 workers, 4 environments, fast (not the standard)",
+                    2,
+                    "fast",
+                    4,
+                ),
             ):
-                out = work / f"{workers}-{quality}"
-                rows.append(
-                    (label, _timed(_eval(url, args, out, workers, quality, args.episodes)), _phases(out))
-                )
+                out = work / f"{workers}-{quality}-{batch}"
+                command = _eval(url, args, out, workers, quality, args.episodes, batch)
+                rows.append((label, _timed(command), _phases(out)))
     finally:
         server.kill()
     body = _table(rows, args)
@@ -194,7 +209,7 @@ def main() -> None:
 def _table(rows: list[tuple[str, float, dict[str, float] | None]], args: argparse.Namespace) -> str:
     base = args.episodes / rows[0][1] * 60
     lines = [
-        f"Run: `python -m benchmarks.bench_standard_eval --episodes {args.episodes} --max-steps {args.max_steps}` "
+        f"Run: `python -m benchmarks.bench_standard_eval --episodes {args.episodes} --max-steps {args.max_steps} --results` "
         f"({args.task}; a stand-in policy server answering chunks of {args.chunk} after {args.latency * 1000:.0f} ms per "
         "forward pass at any batch size; every episode 10 waiting steps and "
         f"{args.max_steps} more; wall time of the whole command, start-up included).",

@@ -64,6 +64,11 @@ class BatchActor:
     def end(self, slot: int, success: bool | None = None) -> None:
         """``slot``'s episode ended (``success``: its outcome, where known)."""
 
+    def looks(self, slot: int) -> bool:
+        """Whether the policy will look at ``slot``'s next observation (a policy acting from a
+        queued chunk does not: its environment need not draw the images)."""
+        return True
+
     def act_chunks(self, observations: Observations) -> dict[int, np.ndarray]:
         """A fresh chunk ``(H, 7)`` for every slot in ``observations``: what a policy server answers
         a client that executes chunks (openpi's). One action per slot for a one-step policy."""
@@ -107,6 +112,10 @@ class ActionQueues:
 
     def pop(self, slot: int) -> np.ndarray:
         return self._queues[slot].popleft()
+
+    def empty(self, slot: int) -> bool:
+        """Whether the slot's queue is empty (its next observation goes to the policy)."""
+        return not self._queues.get(slot)
 
     def take(self, slot: int) -> list[np.ndarray]:
         """Every action left in the slot's queue (the queue is then empty)."""

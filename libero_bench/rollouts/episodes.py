@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -31,6 +32,14 @@ if TYPE_CHECKING:
     from libero_data.runtime.jobs import WorkerContext
 
 CAMERAS = ("agentview", "eye_in_hand")
+#: What storing an episode imports (LeRobot's dataset writer, the video encoder, Rerun).
+STORE_MODULES = (
+    "lerobot.datasets.lerobot_dataset",
+    "lerobot.datasets.video_utils",
+    "av",
+    "rerun",
+    "datasets",
+)
 #: Observation entries the policy side never reads (the driver gets everything else).
 NOT_SENT = ("object_poses",)
 
@@ -54,6 +63,7 @@ class Episode:
     frames: list[dict[str, Any]] = field(default_factory=list)
     success: list[bool] = field(default_factory=list)
     phases: dict[str, float] = field(default_factory=lambda: {"build_s": 0.0, "reset_s": 0.0, "step_s": 0.0})
+    held: int = 0  # observations whose images were held from the step before (nobody looked)
 
 
 class EpisodeHost:
@@ -62,12 +72,24 @@ class EpisodeHost:
     def __init__(self, ctx: WorkerContext) -> None:
         self.ctx = ctx
         self.running: dict[int, Episode] = {}
+        self.warmed = False
+        self._writer: ThreadPoolExecutor | None = None
+        self._writing: list[Future[tuple[str, ...]]] = []
+        self.store_seconds = 0.0
 
     def advance(
-        self, starts: Mapping[int, RolloutJob], actions: Mapping[int, np.ndarray]
+        self,
+        starts: Mapping[int, RolloutJob],
+        actions: Mapping[int, np.ndarray],
+        unseen: frozenset[int] = frozenset(),
     ) -> dict[int, Reply]:
-        """Step the running slots with ``actions``, then start ``starts``; each slot's reply."""
-        replies: dict[int, Reply] = {slot: self.step(slot, action) for slot, action in actions.items()}
+        """Step the running slots with ``actions``, then start ``starts``; each slot's reply. The
+        slots in ``unseen`` draw no images this step: the policy will not look at this observation
+        (it acts from a queued chunk), and the images drawn last are held in its place."""
+        self._collect(wait=False)
+        replies: dict[int, Reply] = {
+            slot: self.step(slot, action, render=slot not in unseen) for slot, action in actions.items()
+        }
         for slot, job in starts.items():
             replies[slot] = (self.start(slot, job), None)
         return replies
@@ -111,31 +133,73 @@ class EpisodeHost:
             obs = env.reset(job.init_state, job.init_index, settle=job.settle)
         else:
             obs = env.reset(job.init_state, seed=job.env_seed, settle=job.settle)
+        if not self.warmed:  # imported while the first episode runs (not while its scene is built)
+            from libero_data.runtime.warm import warm_imports
+
+            warm_imports(STORE_MODULES)
+            self.warmed = True
         episode = self.running[slot] = Episode(job, env, obs, started)
         episode.phases["build_s"] = built - started
         episode.phases["reset_s"] = time.perf_counter() - built
         return policy_view(obs)
 
-    def step(self, slot: int, action: np.ndarray) -> Reply:
-        """Apply one action; the next observation, or the result once the episode ends."""
+    def step(self, slot: int, action: np.ndarray, *, render: bool = True) -> Reply:
+        """Apply one action; the next observation, or the result once the episode ends (without
+        ``render``: the observation holds the images drawn last)."""
         episode = self.running[slot]
         action = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
         frame = policy_view(episode.obs)
         frame["action"] = action.astype(np.float32)
         episode.frames.append(frame)
         stepped = time.perf_counter()
-        episode.obs, ok = episode.env.step(action)
+        before = episode.obs
+        episode.obs, ok = episode.env.step(action, render=render)
+        if not render:
+            episode.held += 1
+            for camera in CAMERAS:
+                episode.obs.setdefault(camera, before[camera])
         episode.phases["step_s"] += time.perf_counter() - stepped
         episode.success.append(bool(ok))
         if ok or len(episode.frames) >= episode.job.max_steps:
             del self.running[slot]
-            return None, self.store(episode)
+            return None, self.finish(episode)
         return policy_view(episode.obs), None
 
-    def store(self, episode: Episode) -> RolloutResult:
-        """Write a finished episode like a demonstration (shard, MCAP log, Rerun recording)."""
-        from libero_bench.evaluation.rerun_log import write_rollout_rrd
+    def finish(self, episode: Episode) -> RolloutResult:
+        """The finished episode's result; it is written by this worker's writer thread while the
+        environments go on (a store would otherwise hold every environment of the step back)."""
         from libero_bench.rollouts.jobs import RolloutResult
+
+        if self._writer is None:
+            self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="store")
+        self._writing.append(self._writer.submit(self.store, episode))
+        reached = bool(episode.success and episode.success[-1])
+        done = time.perf_counter()
+        return RolloutResult(
+            episode.job.key, reached, len(episode.frames), done - episode.started, episode.phases
+        )
+
+    def flush(self) -> float:
+        """Wait until every finished episode is written; the seconds writing took since the last flush."""
+        self._collect(wait=True)
+        seconds, self.store_seconds = self.store_seconds, 0.0
+        return seconds
+
+    def _collect(self, *, wait: bool) -> None:
+        """Ship what the writer has written (raising what it failed on), from this thread."""
+        keep = []
+        for future in self._writing:
+            if wait or future.done():
+                for path in future.result():
+                    self.ctx.ship(path)
+            else:
+                keep.append(future)
+        self._writing = keep
+
+    def store(self, episode: Episode) -> tuple[str, ...]:
+        """Write a finished episode like a demonstration (shard, MCAP log, Rerun recording); the
+        paths written (relative to the root)."""
+        from libero_bench.evaluation.rerun_log import write_rollout_rrd
         from libero_data.record.features import FeatureLayout
         from libero_data.record.shard import write_frames
         from libero_data.runtime.memory import release_free_memory
@@ -144,6 +208,8 @@ class EpisodeHost:
         storing = time.perf_counter()
         reached = bool(success and success[-1])
         tags = {**job.tags, "success": reached, "steps": len(frames), "task_name": job.task_name}
+        if episode.held:  # the images are the policy's view: drawn when it looked, held between
+            tags["held_images"] = episode.held
         write_frames(
             self.ctx.root / job.shard_dir,
             frames=frames,
@@ -162,16 +228,15 @@ class EpisodeHost:
             tags={**tags, "key": job.key},
             recording_id=job.key,
         )
-        self.ctx.ship(job.shard_dir)
-        self.ctx.ship(job.rrd_path)
         release_free_memory()  # between episodes, as the job runner's workers do
-        done = time.perf_counter()
-        phases = {**episode.phases, "store_s": done - storing}
-        return RolloutResult(job.key, reached, len(frames), done - episode.started, phases)
+        self.store_seconds += time.perf_counter() - storing
+        return job.shard_dir, job.rrd_path
 
     def abandon(self) -> None:
-        """Forget the running episodes (an interrupted evaluation: they are run again on resume)."""
+        """Forget the running episodes (an interrupted evaluation: they are run again on resume);
+        the finished ones are written first."""
         self.running.clear()
+        self.flush()
 
 
 def make_host(ctx: WorkerContext) -> EpisodeHost:

@@ -213,6 +213,10 @@ class LeRobotActor(BatchActor):
         dtype = next(self.policy.parameters()).dtype
         return torch.stack(rows).to(self.device, dtype)
 
+    def looks(self, slot: int) -> bool:
+        # A policy reading several past observations keeps every one of them, chunk or not.
+        return self.n_obs > 1 or self.queues.empty(slot)
+
     def describe(self) -> dict[str, Any]:
         return {
             "actor": "lerobot",

@@ -15,6 +15,7 @@ batched matrix product may sum in another order), which a contact-rich episode c
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections import deque
@@ -117,6 +118,12 @@ class Environments:
             "workers": self.executor.workers,
         }
 
+    def flush(self) -> None:
+        """Wait until the workers have written every finished episode (their writer threads)."""
+        if self._pool is not None:
+            written = self._pool.call({w: ("flush", ()) for w in range(self._pool.size)})
+            self.timing["store_s"] = self.timing.get("store_s", 0.0) + sum(written.values())
+
     def run(self, actor: BatchActor, jobs: Sequence[RolloutJob]) -> Iterator[tuple[int, RolloutResult]]:
         """Roll ``actor`` out on ``jobs``; yields ``(index, result)`` as episodes end."""
         if not jobs:
@@ -139,10 +146,12 @@ class Environments:
                     actor.begin(slot, Start(job.key, job.language, job.task_emb, job.init_index, job.suite))
                     starts[slot] = index
                 calls = {}
+                unseen = frozenset(s for s in actions if not actor.looks(s))
                 for worker in sorted({owner[s] for s in [*starts, *actions]}):
                     mine_starts = {s: jobs[i] for s, i in starts.items() if owner[s] == worker}
                     mine_actions = {s: a for s, a in actions.items() if owner[s] == worker}
-                    calls[worker] = ("advance", (mine_starts, mine_actions))
+                    mine_unseen = frozenset(s for s in unseen if owner[s] == worker)
+                    calls[worker] = ("advance", (mine_starts, mine_actions, mine_unseen))
                 running.update(starts)
                 ended = []
                 waited = time.perf_counter()
@@ -159,8 +168,14 @@ class Environments:
                     observations.pop(slot, None)
                     actor.end(slot, result.success)
                     free.append(slot)
+                    if not todo and not running:  # the last one: every episode written before it is given
+                        self.flush()
                     yield index, result
         except GeneratorExit:
-            if running:  # the caller stopped early: the workers forget the episodes in hand
-                pool.call({w: ("abandon", ()) for w in sorted(set(owner))})
+            # the caller stopped early: the workers forget the episodes in hand, write the finished
+            pool.call({w: ("abandon", ()) for w in sorted(set(owner))})
+            raise
+        except Exception:
+            with contextlib.suppress(Exception):  # the finished episodes are written if the workers can
+                self.flush()
             raise

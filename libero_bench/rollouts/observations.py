@@ -165,6 +165,9 @@ class RequestView(BatchActor):
         self.forwards, self.rows = self.actor.forwards, self.actor.rows
         return actions
 
+    def looks(self, slot: int) -> bool:
+        return self.actor.looks(slot)
+
     def describe(self) -> dict[str, Any]:
         return {
             **self.actor.describe(),

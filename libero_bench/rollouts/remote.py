@@ -220,6 +220,9 @@ class RemoteActor(BatchActor):
             )
         return actions
 
+    def looks(self, slot: int) -> bool:
+        return self.queues.empty(slot)
+
     def describe(self) -> dict[str, Any]:
         return {
             "actor": "server",

@@ -115,6 +115,11 @@ class RolloutSession:
         groups = [(opener, list(jobs)) for opener, jobs in groups if jobs]
         if not groups:
             return None
+        from libero_data.runtime.warm import warm_imports
+
+        warm_imports(
+            ("lerobot.datasets.aggregate", "lerobot.datasets.lerobot_dataset")
+        )  # what join() imports
         device = execution.policy_device()
         session: dict[str, Any] = {"rollouts": 0, "forwards": 0}
         phases: dict[str, float] = {}

@@ -29,6 +29,10 @@ pixel for pixel, from one :class:`~libero_data.sim.env.LiberoEnv`, without rebui
   ``state`` is LIBERO's 8-D state as openpi's client builds it: end-effector position,
   robosuite's ``quat2axisangle`` of the quaternion as LIBERO returns it (angle in [0, 2π): no
   sign folding), gripper finger positions, in float64.
+- **Images only where a policy looks.** LIBERO draws both cameras at every step, but a client that
+  executes chunks looks at one observation in each chunk. A step told not to ``render`` keeps its
+  cameras' clocks as they are and hands back the images drawn last (drawing changes no state, so
+  every image that is drawn is LIBERO's, pixel for pixel); the waiting steps draw only the last.
 """
 
 from __future__ import annotations
@@ -82,6 +86,8 @@ class LiberoLoop:
         self._builds = 1  # model builds so far in LIBERO's loop: the environment's construction
         self._before: list[tuple[Any, int]] = []  # per episode: (NumPy state, model builds) before its reset
         self._after: tuple[Any, int] | None = None
+        self._draw = True  # whether the cameras draw at this step's sampling (else: their last images)
+        self._last: dict[str, np.ndarray] = {}
         self._add_cameras()
 
     def _add_cameras(self) -> None:
@@ -94,7 +100,9 @@ class LiberoLoop:
 
             @sensor(modality="image")
             def image(obs_cache: Any, _camera: str = camera) -> np.ndarray:
-                return env.render(_camera)
+                if self._draw or _camera not in self._last:
+                    self._last[_camera] = env.render(_camera)
+                return self._last[_camera]
 
             env.raw.add_observable(Observable(name, image, sampling_rate=env.config.control_freq))
 
@@ -105,25 +113,33 @@ class LiberoLoop:
         rng, builds = self._replay(episode)
         saved = np.random.get_state()
         np.random.set_state(rng)
+        self._draw = False  # nobody looks at the images of the reset, the start and the first waits
         try:
             self._libero_reset(builds)
+            raw = self.env.raw
+            raw.sim.set_state_from_flattened(np.asarray(init_state, dtype=np.float64))
+            raw.sim.forward()
+            raw._check_success()
+            raw._post_process()
+            self._draw = settle == 0
+            raw._update_observables(force=True)
+            obs = self.observe()
+            for wait in range(settle):
+                obs, _done = self.step(np.asarray(WAIT_ACTION), render=wait == settle - 1)
         finally:
             np.random.set_state(saved)
-        raw = self.env.raw
-        raw.sim.set_state_from_flattened(np.asarray(init_state, dtype=np.float64))
-        raw.sim.forward()
-        raw._check_success()
-        raw._post_process()
-        raw._update_observables(force=True)
-        obs = self.observe()
-        for _ in range(settle):
-            obs, _done = self.step(np.asarray(WAIT_ACTION))
+            self._draw = True
         return obs
 
-    def step(self, action: np.ndarray) -> tuple[dict[str, Any], bool]:
-        """robosuite's step through LIBERO (its arithmetic and its ``done``)."""
+    def step(self, action: np.ndarray, *, render: bool = True) -> tuple[dict[str, Any], bool]:
+        """robosuite's step through LIBERO (its arithmetic and its ``done``); without ``render`` the
+        observation holds the images drawn last."""
         self._make_current()
-        _obs, _reward, done, _info = self.env.raw.step(np.asarray(action, dtype=np.float64))
+        self._draw = render
+        try:
+            _obs, _reward, done, _info = self.env.raw.step(np.asarray(action, dtype=np.float64))
+        finally:
+            self._draw = True
         return self.observe(), bool(done)
 
     def observe(self) -> dict[str, Any]:
@@ -174,9 +190,7 @@ class LiberoLoop:
             raise ValueError(f"episode must be at least 0, got {episode}")
         if len(self._before) <= episode:
             saved = np.random.get_state()
-            cameras = [o for n, o in self.env.raw._observables.items() if n in _IMAGES.values()]
-            for observable in cameras:  # replaying draws no images
-                observable.set_enabled(False)
+            self._draw = False  # replaying draws no images
             try:
                 if self._after is None:
                     np.random.seed(self.seed)
@@ -188,8 +202,7 @@ class LiberoLoop:
                     builds = self._libero_reset(builds)
                     self._after = (np.random.get_state(), builds)
             finally:
-                for observable in cameras:
-                    observable.set_enabled(True)
+                self._draw = True
                 np.random.set_state(saved)
         return self._before[episode]
 
