@@ -237,6 +237,7 @@ def test_the_server_refuses_what_openpis_client_cannot_use_in_one_sentence(
 
 
 @pytest.mark.sim
+@pytest.mark.slow  # five suites' scenes built, through the command line
 def test_eval_benchmark_libero_pro_writes_its_table(tmp_path: Path) -> None:
     import subprocess
     import sys
