@@ -109,7 +109,7 @@ def _load(folder: Path) -> tuple[Any, Any, Any, Any]:
     import torch
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
-    from libero_bench.evaluation.lerobot_policy import lerobot_config, serve
+    from libero_bench.rollouts.lerobot_inputs import lerobot_config, serve
 
     torch.set_num_threads(1)
     config = lerobot_config(folder)

@@ -81,6 +81,7 @@ def rate(
     """(rollouts per minute, peak MiB of each worker); ``render_threads`` sets llvmpipe's
     thread count in the new workers (None: Mesa's default, one per core)."""
     from libero_bench.evaluation.evaluator import Evaluator
+
     from libero_data.runtime.jobs import Executor
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
@@ -111,6 +112,7 @@ def rate(
 def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> list[float]:
     """Resident MiB of one worker after each of ``rollouts`` rollouts."""
     from libero_bench.evaluation.evaluator import Evaluator
+
     from libero_data.runtime.jobs import Executor
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-mem-"))

@@ -28,12 +28,13 @@ def reroll(
     from libero_bench.analysis.compare import final_outcomes
     from libero_bench.data.dataset import DemoDataset
     from libero_bench.data.language import encode_tasks
-    from libero_bench.evaluation.evaluator import Evaluator
     from libero_bench.rollouts.jobs import make_job
+    from libero_bench.rollouts.loop import Execution
     from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
+    from libero_bench.runs.saved_policy import kept_checkpoint, policy_from_checkpoint
     from libero_bench.runs.summary import load_run
-    from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
     from libero_bench.train.plan import resolve_eval_task
+    from libero_bench.train.rounds import run_round
     from libero_data.runtime.jobs import Executor
 
     summary = load_run(run)
@@ -79,8 +80,10 @@ def reroll(
                             )
                         )
                 started = time.perf_counter()
-                with Evaluator(Executor("local", workers), Path(tmp) / f"{i}-{position}") as evaluator:
-                    results = evaluator.run(policy, jobs)
+                with Execution(Executor("local", workers)).open(
+                    Path(tmp) / f"{i}-{position}"
+                ) as environments:
+                    results = run_round(environments, policy, jobs)
                 seconds[name] = seconds.get(name, 0.0) + time.perf_counter() - started
                 for job, result in zip(jobs, results, strict=True):
                     tags = job.tags

@@ -137,6 +137,74 @@ def _edges(source: str, target: str) -> list[str]:
     )
 
 
+#: Each package's rooms (subpackages, and top-level modules), in the direction data flows: a room
+#: imports only rooms before it (ARCHITECTURE.md, "Rooms"). A new room takes its place here.
+ROOMS = {
+    "libero_data": (
+        "errors",
+        "config",
+        "registry",
+        "numerics",
+        "runtime",
+        "seeding",
+        "stats",
+        "bddl",
+        "tasks",
+        "scenes",
+        "perturb",
+        "sim",
+        "provenance",
+        "rollout",
+        "initial_scene",
+        "experts",
+        "record",
+        "hdf5",
+        "procedural",
+        "cards",
+        "pipeline",
+        "cli",
+    ),
+    "libero_bench": (
+        "sizes",
+        "data",
+        "policies",
+        "algos",
+        "runs",
+        "rollouts",
+        "train",
+        "evaluation",
+        "analysis",
+        "robustness",
+        "cli",
+    ),
+}
+
+
+def _room(module: str) -> tuple[str, str]:
+    package, _, rest = module.partition(".")
+    return package, rest.split(".")[0] if rest else ""
+
+
+def test_every_room_has_its_place() -> None:
+    rooms = {_room(m) for m in MODULES if "." in m}
+    assert sorted(r for r in rooms if r[1] not in ROOMS[r[0]]) == []
+
+
+def test_rooms_import_one_way() -> None:
+    """A room imports only the rooms before it in :data:`ROOMS`, lazy and type-only imports too."""
+    graph, _ = _imports()
+    against = []
+    for module, targets in graph.items():
+        package, room = _room(module)
+        order = ROOMS[package]
+        for target in targets:
+            other_package, other = _room(target)
+            same_package = other_package == package and other != room and room and other
+            if same_package and order.index(other) > order.index(room):
+                against.append(f"{module} -> {target}")
+    assert sorted(against) == []
+
+
 def test_data_never_imports_the_benchmark() -> None:
     assert _edges("libero_data", "libero_bench") == []
 

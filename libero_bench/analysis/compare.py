@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_bench.analysis.intervals import DRAWS, METRICS, interval, swap_test
 from libero_bench.runs.folder import AFTER, LEARNING, STARTS, STORED
+from libero_bench.runs.intervals import DRAWS, METRICS, interval, swap_test
 from libero_bench.runs.summary import RunSummary, load_run
 from libero_data.errors import RunError
 from libero_data.stats import mcnemar_exact, wilson_interval

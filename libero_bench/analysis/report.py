@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.analysis.intervals import METRICS, Rate, final_rates, metric_summary
 from libero_bench.runs.folder import HELDOUT, STARTS, STORED
+from libero_bench.runs.intervals import METRICS, Rate, final_rates, metric_summary
 from libero_bench.runs.summary import RunSummary, load_run
 from libero_data.errors import InputError
 from libero_data.runtime.files import write_json, write_text

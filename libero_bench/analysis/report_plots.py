@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_bench.analysis.intervals import METRICS, Rate, cell_outcomes
 from libero_bench.runs.folder import HELDOUT, STARTS, STORED
+from libero_bench.runs.intervals import METRICS, Rate, cell_outcomes
 
 if TYPE_CHECKING:
     from libero_bench.runs.summary import RunSummary

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from libero_bench.runs.folder import RunFolder, find_task
-from libero_bench.train.checkpoints import kept_checkpoint, policy_from_checkpoint
+from libero_bench.runs.saved_policy import kept_checkpoint, policy_from_checkpoint
 from libero_data.errors import InputError, RunError
 
 logger = logging.getLogger(__name__)
@@ -59,7 +59,7 @@ def saliency_for_run(
 
     from libero_bench.analysis.saliency import overlay, saliency_map
     from libero_bench.data.language import encode_tasks
-    from libero_bench.evaluation.rerun_log import write_saliency_rrd
+    from libero_bench.rollouts.rerun_log import write_saliency_rrd
 
     folder = RunFolder(Path(run))
     config = folder.read_config()

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.analysis.intervals import Rate
 from libero_bench.runs.folder import HELDOUT, STANDARD, START_KINDS, STORED
+from libero_bench.runs.intervals import Rate
 from libero_data.tasks.horizons import limit_text
 
 __all__ = ["chart", "eval_markdown", "summarize_eval"]

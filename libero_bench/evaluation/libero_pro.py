@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from libero_bench.analysis.intervals import Rate
+from libero_bench.runs.intervals import Rate
 from libero_data.errors import InputError
 from libero_data.tasks.horizons import SUITE, StepLimit
 

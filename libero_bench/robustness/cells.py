@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.analysis.intervals import Rate
+from libero_bench.runs.intervals import Rate
 from libero_data.errors import InputError
 from libero_data.rollout import RolloutSettings
 from libero_data.tasks.horizons import SUITE, limit_text
@@ -88,9 +88,9 @@ def make_cells(request: SweepRequest, folder: Path) -> list[Cell]:
     """Write the variants (and sources) as a suite folder; the cells in order."""
     from libero_data.bddl import write
     from libero_data.perturb.levels import KINDS
-    from libero_data.procedural.sampler import SamplingError
     from libero_data.procedural.variants import make_variant
     from libero_data.runtime.files import write_json, write_text
+    from libero_data.scenes.sampler import SamplingError
     from libero_data.seeding import variant_level_rng
     from libero_data.tasks import get_task
 

@@ -40,7 +40,7 @@ def run_outcomes(
     from libero_bench.rollouts.actors import PolicyActor
     from libero_bench.rollouts.session import RolloutSession
     from libero_bench.rollouts.sources import policy_source
-    from libero_bench.train.checkpoints import load_run_policy
+    from libero_bench.runs.saved_policy import load_run_policy
 
     source = policy_source(str(run))
     names = list(source.tasks)

@@ -7,7 +7,7 @@ episodes (:meth:`EpisodeHost.advance`); the host answers each slot with its next
 when the goal holds or the step limit is reached, with the episode's result, after writing it like
 a demonstration: a one-episode LeRobot shard with its MCAP log
 (:func:`libero_data.record.shard.write_frames`, tagged with the job's tags, seeds, init index and
-success) and a Rerun ``.rrd`` (:mod:`libero_bench.evaluation.rerun_log`).
+success) and a Rerun ``.rrd`` (:mod:`libero_bench.rollouts.rerun_log`).
 
 One rollout: take (or build) the task's :class:`~libero_data.sim.LiberoEnv`, reset it to the job's
 start, let the scene settle with ``settle`` no-op steps (LIBERO waits 10 before acting), then act
@@ -199,7 +199,7 @@ class EpisodeHost:
     def store(self, episode: Episode) -> tuple[str, ...]:
         """Write a finished episode like a demonstration (shard, MCAP log, Rerun recording); the
         paths written (relative to the root)."""
-        from libero_bench.evaluation.rerun_log import write_rollout_rrd
+        from libero_bench.rollouts.rerun_log import write_rollout_rrd
         from libero_data.record.features import FeatureLayout
         from libero_data.record.shard import write_frames
         from libero_data.runtime.memory import release_free_memory

@@ -19,7 +19,7 @@ end their episodes at different steps:
 - ACT's temporal ensembling needs a forward pass per step and environment, outside of this scheme:
   refused in one sentence.
 
-Observations are served from the policy's declared inputs (:func:`libero_bench.evaluation.lerobot_policy.serve`).
+Observations are served from the policy's declared inputs (:func:`libero_bench.rollouts.lerobot_inputs.serve`).
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.evaluation.lerobot_policy import SIM_STATE, SIM_STATE_DIM, Inputs, lerobot_config, serve
 from libero_bench.rollouts.actors import (
     ActionQueues,
     BatchActor,
@@ -41,6 +40,7 @@ from libero_bench.rollouts.actors import (
     chunked_answers,
     forward_threads,
 )
+from libero_bench.rollouts.lerobot_inputs import SIM_STATE, SIM_STATE_DIM, Inputs, lerobot_config, serve
 from libero_data.errors import InputError
 from libero_data.seeding import policy_noise_seed
 

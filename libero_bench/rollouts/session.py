@@ -166,7 +166,7 @@ class RolloutSession:
 
     def join(self, meta: Mapping[str, Any], bddl: Mapping[str, str]) -> int:
         """Join every recorded rollout's shard into ``rollouts/`` (one LeRobot dataset)."""
-        from libero_bench.evaluation.rollout_dataset import build_rollout_dataset
+        from libero_bench.rollouts.rollout_dataset import build_rollout_dataset
         from libero_data.errors import RunError
 
         keys = sorted(self.records)

@@ -95,8 +95,8 @@ def _server_source(url: str, image_size: int | None, replan_steps: int, request:
 
 
 def _lerobot_source(folder: Path) -> PolicySource:
-    from libero_bench.evaluation.lerobot_policy import lerobot_config, serve
     from libero_bench.rollouts.lerobot_actor import LeRobotActor
+    from libero_bench.rollouts.lerobot_inputs import lerobot_config, serve
 
     config = lerobot_config(folder)
     inputs = serve(config.input_features, f"the {config.type} policy at {folder}")
@@ -158,7 +158,7 @@ def run_training_starts(config: dict[str, Any]) -> TrainingStarts:
 
 def _run_source(folder: Path) -> PolicySource:
     from libero_bench.rollouts.actors import PolicyActor
-    from libero_bench.train.checkpoints import load_run_policy
+    from libero_bench.runs.saved_policy import load_run_policy
 
     checked = load_run_policy(folder)  # built and loaded once: a run that does not fit is one sentence now
     config = checked.config

@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from libero_bench.runs.folder import CHECKPOINTS, RUN_FORMAT
+from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE
 from libero_bench.runs.state_files import SUFFIX, load_state, load_weights, save_state
-from libero_bench.train.checkpoints import CHECKPOINT, EPOCH_STATE
 from libero_data.errors import CheckpointError, MissingFileError
 
 logger = logging.getLogger(__name__)

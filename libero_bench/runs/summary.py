@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.analysis.intervals import RunDraws
 from libero_bench.runs.folder import STORED, RunFolder, RunResults
+from libero_bench.runs.intervals import RunDraws
 from libero_data.errors import MissingFileError, RunError
 
 

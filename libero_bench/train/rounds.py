@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,12 +22,27 @@ from libero_bench.train.plan import RunPlan, resolve_eval_task
 
 if TYPE_CHECKING:
     from libero_bench.algos import Algo
-    from libero_bench.evaluation.evaluator import Evaluator
     from libero_bench.policies.base import Policy
     from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult
+    from libero_bench.rollouts.loop import Environments
     from libero_bench.train.observer import RunObserver
 
 logger = logging.getLogger(__name__)
+
+
+def run_round(
+    environments: Environments,
+    policy: Policy,
+    jobs: Sequence[RolloutJob],
+    on_result: Callable[[RolloutResult], None] | None = None,
+) -> list[RolloutResult]:
+    """Roll a libero-bench policy (its current weights) out on ``jobs`` in the run's open
+    environments; the results in the order of ``jobs``."""
+    from libero_bench.rollouts.actors import PolicyActor
+    from libero_bench.rollouts.session import roll_out
+
+    found = {job.key: result for job, result in roll_out(environments, PolicyActor(policy), jobs, on_result)}
+    return [found[job.key] for job in jobs]
 
 
 class EvaluationRounds:
@@ -37,7 +52,7 @@ class EvaluationRounds:
         self.plan = plan
         self.folder = folder
         self.observer = observer
-        self.evaluator: Evaluator | None = None  # set while the run's evaluator is open
+        self.environments: Environments | None = None  # set while the run's environments are open
         self._eval_tasks: list[EvalTask] | None = None
 
     def eval_tasks(self) -> list[EvalTask]:
@@ -101,18 +116,18 @@ class EvaluationRounds:
         rollouts build a policy, which draws initial weights), whatever the number of workers."""
         import torch
 
-        assert self.evaluator is not None, "no evaluator is open"
+        assert self.environments is not None, "the run's environments are not open"
         started = time.perf_counter()
         self.observer.eval_start(label, len(jobs))
         numpy_state = np.random.get_state()
         with torch.random.fork_rng(devices=[]):
-            outcomes = self.evaluator.run(policy, jobs, on_result=self.observer.rollout_done)
+            outcomes = run_round(self.environments, policy, jobs, on_result=self.observer.rollout_done)
         np.random.set_state(numpy_state)
         self.folder.append_timing(
             {
                 "what": "evaluate",
                 "label": label,
-                **self.evaluator.describe(),
+                **self.environments.describe(),
                 "rollouts": len(jobs),
                 "steps": sum(o.steps for o in outcomes),
                 "seconds": round(time.perf_counter() - started, 3),

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_bench.evaluation import evaluator as evaluate
+from libero_bench.rollouts.loop import Execution
 from libero_bench.runs.folder import AFTER, LEARNING, PRUNED, STARTS, STORED, RunFolder, RunResults
 from libero_bench.train.checkpoints import (
     load_checkpoint,
@@ -196,15 +196,15 @@ class Trainer:
         algo = self._new_algo()
         results = self.prepare()
         self.folder.work.mkdir(parents=True, exist_ok=True)
-        with evaluate.Evaluator(self.options.executor, self.folder.root) as evaluator:
-            self.rounds.evaluator = evaluator
+        with Execution(self.options.executor).open(self.folder.root) as environments:
+            self.rounds.environments = environments
             try:
                 if self.plan.needs_all_tasks:
                     self._run_multitask(results, policy, algo)
                 else:
                     self._run_sequential(results, policy, algo)
             finally:
-                self.rounds.evaluator = None
+                self.rounds.environments = None
         if not results.complete:
             self.collect_rollouts(results)
             results.complete = True

@@ -15,8 +15,8 @@ def scenes_cmd() -> None:
     """List the scene layouts and behaviour templates that `generate --procedural` samples from."""
     from rich.table import Table
 
-    from libero_data.procedural.catalogue import load_catalogue
-    from libero_data.procedural.templates import TEMPLATES
+    from libero_data.scenes.catalogue import load_catalogue
+    from libero_data.scenes.templates import TEMPLATES
 
     cat = load_catalogue()
     table = Table("scene", "kind", "fixtures", "object spots", "from shipped tasks")

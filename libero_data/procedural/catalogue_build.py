@@ -1,4 +1,4 @@
-"""Building ``catalogue.json`` (:mod:`libero_data.procedural.catalogue`) from the shipped tasks:
+"""Building ``catalogue.json`` (:mod:`libero_data.scenes.catalogue`) from the shipped tasks:
 their BDDL files mined for layouts, the assets' footprints measured in the simulator. Run once
 (``python -m libero_data.procedural.catalogue_build``); the output is committed."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from libero_data.procedural.catalogue import CATALOGUE_PATH, NOT_GRASPABLE, SCENE_KINDS
+from libero_data.scenes.catalogue import CATALOGUE_PATH, NOT_GRASPABLE, SCENE_KINDS
 
 
 def build_catalogue() -> dict[str, Any]:

@@ -17,8 +17,8 @@ from libero_data.perturb.levels import LEVELS
 
 def level_variants(task: Any, kind: str, seed: int = 0) -> list[tuple[int, Any, str]]:
     """(level, problem or None, why not) for levels 0 (the source) to 5 of ``kind``."""
-    from libero_data.procedural.sampler import SamplingError
     from libero_data.procedural.variants import make_variant
+    from libero_data.scenes.sampler import SamplingError
     from libero_data.seeding import variant_level_rng
 
     out: list[tuple[int, Any, str]] = [(0, task.problem, "")]

@@ -26,10 +26,10 @@ import numpy as np
 
 from libero_data.config import Config
 from libero_data.errors import SettingsChanged
-from libero_data.procedural.sampler import SampledTask, sample_tasks
 from libero_data.runtime.files import save_npz, write_json, write_text
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
 from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
+from libero_data.scenes.sampler import SampledTask, sample_tasks
 from libero_data.seeding import CANDIDATE_EXPERT, candidate_seed
 from libero_data.tasks import SUITE_MANIFEST
 

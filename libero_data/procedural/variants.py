@@ -18,8 +18,8 @@ from libero_data.perturb.kinds import get_kind
 from libero_data.perturb.kinds.base import VariantSource
 from libero_data.perturb.kinds.placement import scene_of
 from libero_data.perturb.levels import LEVELS
-from libero_data.procedural.catalogue import Catalogue, load_catalogue
-from libero_data.procedural.sampler import SampledTask, SamplingError
+from libero_data.scenes.catalogue import Catalogue, load_catalogue
+from libero_data.scenes.sampler import SampledTask, SamplingError
 from libero_data.seeding import variant_level_rng
 
 

@@ -33,26 +33,12 @@ def synthetic_batch(
     }
 
 
-class Succeeds:
-    """Stands in for the rollout evaluator (``libero_bench.evaluation.evaluator.Evaluator``): every rollout
-    succeeds in 3 steps, no simulation."""
+def succeeds(environments: Any, policy: Any, jobs: list[Any], on_result: Any = None) -> list[Any]:
+    """Stands in for a run's evaluation rounds (``libero_bench.train.rounds.run_round``): every
+    rollout succeeds in 3 steps, no simulation (no worker is started)."""
+    from libero_bench.rollouts.jobs import RolloutResult
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        pass
-
-    def __enter__(self) -> Succeeds:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        pass
-
-    def describe(self) -> dict[str, object]:
-        return {"batch_size": 1, "executor": "local", "workers": 0}
-
-    def run(self, policy: Any, jobs: list[Any], on_result: Any = None) -> list[Any]:
-        from libero_bench.rollouts.jobs import RolloutResult
-
-        return [RolloutResult(job.key, True, 3, 0.0) for job in jobs]
+    return [RolloutResult(job.key, True, 3, 0.0) for job in jobs]
 
 
 def run_request(data: Path, **kwargs: Any) -> Any:
@@ -68,11 +54,11 @@ def make_run(data: Path, out: Path) -> Path:
     """A finished run of :func:`run_request` made without simulation (rollouts all succeed)."""
     import pytest
 
-    from libero_bench.evaluation import evaluator as evaluate
+    from libero_bench.train import rounds
     from libero_bench.train.trainer import RunOptions, Trainer, plan_run
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "Evaluator", Succeeds)
+        patch.setattr(rounds, "run_round", succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
         Trainer(plan_run(run_request(data)), out, RunOptions()).run()
     return out

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from libero_bench.analysis import metrics
+from libero_bench.runs import metrics
 
 # 3 tasks, 3 evaluation points each (rows: task k while learning it)
 CURVE = [

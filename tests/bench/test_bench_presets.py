@@ -49,7 +49,7 @@ def test_invalid_fields_are_named() -> None:
 
 def test_light_modules_do_not_import_torch() -> None:
     code = (
-        "import sys, libero_bench.analysis.metrics, libero_bench.train.presets, libero_bench.data.language;"
+        "import sys, libero_bench.runs.metrics, libero_bench.train.presets, libero_bench.data.language;"
         "print('torch' in sys.modules)"
     )
     out = subprocess.run(

@@ -11,12 +11,11 @@ from typing import Any, ClassVar
 
 import pytest
 import torch
-from bench_helpers import Succeeds
 
 from libero_bench.algos import algo_class, algo_names
-from libero_bench.evaluation import evaluator as evaluate
 from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
-from libero_bench.train.checkpoints import read_checkpoint
+from libero_bench.runs.saved_policy import read_checkpoint
+from libero_bench.train import rounds
 from libero_bench.train.presets import SMOKE
 from libero_bench.train.trainer import RunOptions, RunRequest, Trainer, plan_run
 
@@ -37,18 +36,17 @@ def _digest(policy: torch.nn.Module) -> float:
     )
 
 
-class ScriptedEvaluator(Succeeds):
-    """Stands in for :class:`libero_bench.evaluation.evaluator.Evaluator`: successes come from the tables
-    above; every call records the policy's weights digest."""
+class ScriptedEvaluator:
+    """Stands in for a run's evaluation rounds (:func:`libero_bench.train.rounds.run_round`): successes
+    come from the tables above; every call records the policy's weights digest."""
 
     calls: ClassVar[list[dict[str, Any]]] = []
 
-    def __init__(
-        self, workers: int, work_dir: Path, *, executor: str = "local", ray_address: str | None = None
-    ) -> None:
-        assert executor == "local" and ray_address is None  # what RunOptions defaults to
-
-    def run(self, policy: Any, jobs: list[RolloutJob], on_result: Any = None) -> list[RolloutResult]:
+    @classmethod
+    def run(
+        cls, environments: Any, policy: Any, jobs: list[RolloutJob], on_result: Any = None
+    ) -> list[RolloutResult]:
+        assert environments.executor.kind == "local"  # what RunOptions defaults to
         out = []
         for job in jobs:
             tags = job.tags
@@ -60,14 +58,14 @@ class ScriptedEvaluator(Succeeds):
                 rate = PRUNED
             success = tags["rollout"] < round(rate * 2)
             out.append(RolloutResult(job.key, success, 3, 0.0))
-            type(self).calls.append({**tags, "digest": _digest(policy)})
+            cls.calls.append({**tags, "digest": _digest(policy)})
         return out
 
 
 @pytest.fixture
 def scripted(monkeypatch: pytest.MonkeyPatch) -> type[ScriptedEvaluator]:
     ScriptedEvaluator.calls = []
-    monkeypatch.setattr(evaluate, "Evaluator", ScriptedEvaluator)
+    monkeypatch.setattr(rounds, "run_round", ScriptedEvaluator.run)
     monkeypatch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
     return ScriptedEvaluator
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from libero_bench.analysis import metrics
+from libero_bench.runs import metrics
 
 # One xdist worker runs this module (its run is built once) and the other Ray test: two local
 # Ray instances at once would crowd 2 cores and memory.

@@ -97,7 +97,7 @@ def _eval(policy: Path, scratch: Path) -> list[Any]:
 def _other_weights(root: Path) -> Path:
     from safetensors.torch import save_file
 
-    from libero_bench.train.checkpoints import read_checkpoint
+    from libero_bench.runs.saved_policy import read_checkpoint
 
     path = root / "checkpoints" / "task_001.safetensors"
     weights = read_checkpoint(path)["policy"]
@@ -106,8 +106,8 @@ def _other_weights(root: Path) -> Path:
 
 
 def _wrong_shapes(root: Path) -> Path:
+    from libero_bench.runs.saved_policy import CHECKPOINT, read_checkpoint
     from libero_bench.runs.state_files import save_state
-    from libero_bench.train.checkpoints import CHECKPOINT, read_checkpoint
 
     path = root / "checkpoints" / "task_001.safetensors"
     state = read_checkpoint(path)

@@ -16,8 +16,8 @@ from typing import Any
 
 import pytest
 
-from libero_bench.analysis.intervals import final_rates
 from libero_bench.runs.folder import STARTS, RunResults
+from libero_bench.runs.intervals import final_rates
 from libero_bench.train.presets import get_preset
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "quick"

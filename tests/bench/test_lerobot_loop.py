@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from libero_bench.evaluation.lerobot_policy import serve
+from libero_bench.rollouts.lerobot_inputs import serve
 from libero_data.errors import InputError
 
 VENV_BIN = Path(sys.executable).parent
@@ -190,8 +190,8 @@ def test_lerobot_batches_give_every_rollout_the_start_libero_bench_gives_it(
     from lerobot_env_libero_data.env import LiberoDataGymEnv
     from lerobot_policies import save_policy
 
-    from libero_bench.evaluation.lerobot_policy import lerobot_config
     from libero_bench.rollouts.jobs import EvalTask
+    from libero_bench.rollouts.lerobot_inputs import lerobot_config
     from libero_data.tasks import get_task
 
     step = LiberoDataGymEnv.step

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from bench_helpers import Succeeds, run_request
+from bench_helpers import run_request, succeeds
 
 from libero_bench.data.mixing import VARIANT_SEPARATOR, MixedWindows, MixEpisode, mixed_seeds
 from libero_data.errors import InputError
@@ -125,13 +125,13 @@ def test_held_out_starts_skip_every_training_start(
 
 
 def test_a_mixed_run_records_its_mix(tiny_dataset: Path, variants: Path, tmp_path: Path) -> None:
-    from libero_bench.evaluation import evaluator as evaluate
+    from libero_bench.train import rounds
     from libero_bench.train.trainer import RunOptions, Trainer
     from libero_data.runtime.files import read_json
 
     out = tmp_path / "run"
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "Evaluator", Succeeds)
+        patch.setattr(rounds, "run_round", succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
         Trainer(_plan(tiny_dataset, variants, tasks=("7",)), out, RunOptions()).run()
     config = read_json(out / "config.json")

@@ -19,9 +19,9 @@ import pytest
 import torch
 from lerobot_policies import save_policy
 
-from libero_bench.evaluation.lerobot_policy import lerobot_config, serve
 from libero_bench.rollouts.actors import ActionQueues, Start
 from libero_bench.rollouts.lerobot_actor import LeRobotActor, raw_batch
+from libero_bench.rollouts.lerobot_inputs import lerobot_config, serve
 from libero_bench.rollouts.remote import RemoteActor, connect
 from libero_bench.rollouts.server import PolicyServer
 from libero_bench.rollouts.wire import pack, unpack

@@ -14,14 +14,14 @@ from typing import Any
 import numpy as np
 import pytest
 import torch
-from bench_helpers import Succeeds, run_request
+from bench_helpers import run_request, succeeds
 from typer.testing import CliRunner
 
 from libero_bench.cli import app
-from libero_bench.evaluation import evaluator as evaluate
 from libero_bench.runs.migrate import migrate
+from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE, read_checkpoint
 from libero_bench.runs.state_files import is_pickle, load_state, load_weights, save_state
-from libero_bench.train.checkpoints import CHECKPOINT, EPOCH_STATE, read_checkpoint
+from libero_bench.train import rounds
 from libero_bench.train.trainer import RunOptions, Trainer, plan_run
 from libero_data.errors import CheckpointError
 
@@ -243,7 +243,7 @@ def test_an_earlier_runs_pickles_are_migrated(er_run: Path, tiny_dataset: Path, 
     assert original["algo"]["memories"].keys() == {0, 1}  # ER's memories, keyed by task number
     # the migrated run reads as before: finished, nothing redone
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "Evaluator", Succeeds)
+        patch.setattr(rounds, "run_round", succeeds)
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
         again = Trainer(plan_run(run_request(tiny_dataset)), run, RunOptions()).run()
     assert again.complete

@@ -221,7 +221,7 @@ def test_only_the_kinds_the_sweep_widens_for_change_the_simulator_state_width(tm
 
     task = get_task("libero_object/0")
     source = state_width(task)
-    from libero_data.procedural.sampler import SamplingError
+    from libero_data.scenes.sampler import SamplingError
 
     for kind in KINDS:
         rng = variant_level_rng(0, task.index, 0, 1)

@@ -7,15 +7,15 @@ import pytest
 from libero_data.bddl import parse
 from libero_data.bddl.model import atoms
 from libero_data.bddl.writer import write
-from libero_data.procedural.catalogue import load_catalogue
-from libero_data.procedural.sampler import (
+from libero_data.scenes.catalogue import load_catalogue
+from libero_data.scenes.sampler import (
     SamplingError,
     check_problem,
     sample_tasks,
     shipped_signatures,
     signature,
 )
-from libero_data.procedural.templates import TEMPLATES
+from libero_data.scenes.templates import TEMPLATES
 from libero_data.tasks import get_task
 
 
@@ -99,7 +99,7 @@ def test_known_tasks_are_never_drawn_again() -> None:
 
 
 def test_a_template_that_only_repeats_shipped_tasks_is_rejected() -> None:
-    from libero_data.procedural.catalogue import load_catalogue
+    from libero_data.scenes.catalogue import load_catalogue
 
     cat = load_catalogue()
     # Every floor task would be known: the sampler gives up after a few draws and says why.
@@ -133,8 +133,8 @@ def test_scene_and_template_choice() -> None:
 
 
 def test_one_instruction_per_scene_and_unique_names(drawn: list) -> None:
-    from libero_data.procedural.catalogue import load_catalogue
-    from libero_data.procedural.sampler import shipped_instructions
+    from libero_data.scenes.catalogue import load_catalogue
+    from libero_data.scenes.sampler import shipped_instructions
 
     kept = [t for t, *_ in drawn if t is not None]
     pairs = [(t.scene, t.language) for t in kept]

@@ -10,9 +10,9 @@ from libero_data.bddl.model import atoms
 from libero_data.bddl.writer import write
 from libero_data.perturb.kinds.language import paraphrase
 from libero_data.perturb.kinds.placement import MOVED, scene_of
-from libero_data.procedural.catalogue import load_catalogue
-from libero_data.procedural.sampler import SamplingError, check_problem
 from libero_data.procedural.variants import make_variant, variant_tasks
+from libero_data.scenes.catalogue import load_catalogue
+from libero_data.scenes.sampler import SamplingError, check_problem
 from libero_data.tasks import get_task
 
 

@@ -22,7 +22,7 @@ from libero_data.registry import Registry
 
 if TYPE_CHECKING:
     from libero_data.bddl.model import Problem
-    from libero_data.procedural.catalogue import Catalogue, SceneSpec
+    from libero_data.scenes.catalogue import Catalogue, SceneSpec
 
 
 class Drawn(Protocol):

@@ -11,7 +11,7 @@ import numpy as np
 from libero_data.bddl.model import Atom, Entity, Problem
 from libero_data.perturb.kinds.base import Kind, VariantSource, register
 from libero_data.perturb.kinds.placement import centre, free_centre, square, table_starts_all
-from libero_data.procedural.sampler import SamplingError
+from libero_data.scenes.sampler import SamplingError
 
 
 @register

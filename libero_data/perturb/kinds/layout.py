@@ -16,7 +16,7 @@ from libero_data.perturb.kinds.placement import (
     table_starts,
     table_starts_all,
 )
-from libero_data.procedural.sampler import SamplingError
+from libero_data.scenes.sampler import SamplingError
 
 
 @register

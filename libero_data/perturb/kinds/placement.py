@@ -8,8 +8,8 @@ import dataclasses
 import numpy as np
 
 from libero_data.bddl.model import Atom, Problem, Region, atoms
-from libero_data.procedural.catalogue import Catalogue, SceneSpec
-from libero_data.procedural.sampler import GAP, HALF_WIDTH
+from libero_data.scenes.catalogue import Catalogue, SceneSpec
+from libero_data.scenes.sampler import GAP, HALF_WIDTH
 
 FIXTURE_CLEARANCE = 0.2  # metres from a fixture's centre to any new object's footprint
 MOVED = 0.06  # metres between a moved object's new centre and its source region's centre (level 1)

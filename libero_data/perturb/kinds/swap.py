@@ -12,8 +12,8 @@ import numpy as np
 
 from libero_data.bddl.model import Atom, Entity, Problem, atoms
 from libero_data.perturb.kinds.base import Kind, VariantSource, register
-from libero_data.procedural.sampler import SamplingError
-from libero_data.procedural.templates import HARD_TO_GRASP, display
+from libero_data.scenes.sampler import SamplingError
+from libero_data.scenes.templates import HARD_TO_GRASP, display
 
 #: Objects that can stand in for each other.
 KIND_GROUPS = (

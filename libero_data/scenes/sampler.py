@@ -16,8 +16,8 @@ import numpy as np
 
 from libero_data.bddl.model import And, Atom, Entity, Problem, Region, atoms
 from libero_data.errors import InputError
-from libero_data.procedural.catalogue import Catalogue, SceneSpec, load_catalogue
-from libero_data.procedural.templates import TEMPLATES, Draft, instantiate
+from libero_data.scenes.catalogue import Catalogue, SceneSpec, load_catalogue
+from libero_data.scenes.templates import TEMPLATES, Draft, instantiate
 from libero_data.seeding import sampler_rng
 
 #: Default mix (kept tasks across scenes and templates); every template is possible.

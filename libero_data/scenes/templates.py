@@ -15,7 +15,7 @@ import numpy as np
 
 from libero_data.bddl.model import Atom
 from libero_data.errors import UnknownNameError
-from libero_data.procedural.catalogue import Catalogue, FixtureSpec, SceneSpec
+from libero_data.scenes.catalogue import Catalogue, FixtureSpec, SceneSpec
 
 #: How objects are called in instructions (the category's words otherwise).
 DISPLAY = {

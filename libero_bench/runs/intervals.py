@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.analysis import metrics
+from libero_bench.runs import metrics
 from libero_bench.runs.folder import AFTER, LEARNING, STORED, RunResults
 from libero_data.stats import wilson_interval
 
