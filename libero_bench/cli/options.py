@@ -67,7 +67,7 @@ ReplanSteps = Annotated[
 
 def policy_or_server(policy: object, server: str | None) -> str:
     """The policy reference of a command that takes a folder or ``--server``, exactly one of them."""
-    from libero_bench.rollouts.sources import is_server
+    from libero_bench.rollouts.policy_kinds import is_server
     from libero_data.errors import InputError
 
     if (policy is None) == (server is None):

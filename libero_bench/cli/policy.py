@@ -81,8 +81,8 @@ def eval_cmd(
     quiet_environment()
     from libero_bench.evaluation.policy_eval import EvalRequest, eval_markdown, evaluate_policy
     from libero_bench.rollouts.loop import Execution
+    from libero_bench.rollouts.policy_kinds import policy_source
     from libero_bench.rollouts.protocol import get_protocol
-    from libero_bench.rollouts.sources import policy_source
     from libero_data.errors import InputError
     from libero_data.runtime.jobs import Executor
     from libero_data.tasks.horizons import parse_step_limit

@@ -116,7 +116,7 @@ def robustness_cmd(
         replan_steps=replan_steps,
     )
     execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
-    from libero_bench.rollouts.sources import check_policy
+    from libero_bench.rollouts.policy_kinds import check_policy
 
     check_policy(reference, image_size, replan_steps)  # one sentence before any output
     with rollout_progress() as (done, total):

@@ -27,9 +27,9 @@ import numpy as np
 from libero_bench.evaluation.eval_report import chart, eval_markdown, summarize_eval
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make_job
 from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.policy_kinds import RUN, SERVER, PolicySource, policy_source
 from libero_bench.rollouts.protocol import LIBERO_BENCH, PROTOCOLS, Protocol, get_protocol
 from libero_bench.rollouts.session import Group, RolloutSession, rollout_record
-from libero_bench.rollouts.sources import RUN, SERVER, PolicySource, policy_source
 from libero_bench.runs.folder import HELDOUT, STANDARD, STORED
 from libero_data.errors import InputError, LiberoDataError
 from libero_data.pipeline.request import state_width

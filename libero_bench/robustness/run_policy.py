@@ -38,8 +38,8 @@ def run_outcomes(
     are removed unless ``keep_work``."""
     from libero_bench.data.dataset import DemoDataset
     from libero_bench.rollouts.actors import PolicyActor
+    from libero_bench.rollouts.policy_kinds import policy_source
     from libero_bench.rollouts.session import RolloutSession
-    from libero_bench.rollouts.sources import policy_source
     from libero_bench.runs.saved_policy import load_run_policy
 
     source = policy_source(str(run))

@@ -20,7 +20,7 @@ from libero_bench.robustness.cells import (
     write_sweep_report,
 )
 from libero_bench.rollouts.loop import Execution
-from libero_bench.rollouts.sources import PolicySource
+from libero_bench.rollouts.policy_kinds import PolicySource
 
 
 def sweep(
@@ -35,7 +35,7 @@ def sweep(
 ) -> dict[str, Any]:
     """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
     policy server, ``ws://HOST:PORT``); ``keep_work`` keeps the rollouts' shards once joined."""
-    from libero_bench.rollouts.sources import RUN, check_policy, is_server
+    from libero_bench.rollouts.policy_kinds import RUN, check_policy, is_server
     from libero_data.runtime.versions import versions
 
     execution = execution or Execution()

@@ -215,8 +215,8 @@ class PolicyServer:
 def served_policy(path: str, device: str, view_task: int | None = None) -> PolicyServer:
     """What ``libero-bench serve`` serves: a libero-bench run folder (its final checkpoint, in the
     evaluation view of the task at ``view_task``, default its last) or a LeRobot
-    ``pretrained_model/`` folder (:func:`~libero_bench.rollouts.sources.policy_source`)."""
-    from libero_bench.rollouts.sources import RUN, policy_source
+    ``pretrained_model/`` folder (:func:`~libero_bench.rollouts.policy_kinds.policy_source`)."""
+    from libero_bench.rollouts.policy_kinds import RUN, policy_source
     from libero_data.runtime.versions import versions
 
     source = policy_source(path)
