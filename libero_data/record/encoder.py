@@ -114,7 +114,19 @@ class _CameraThread(threading.Thread):
                 self.frames.get_nowait()
         finally:
             if container is not None:
-                container.close()
+                try:
+                    container.close()  # a full disk fails here too: reported, never printed by the thread
+                except BaseException as exc:
+                    self.error = self.error or exc
+
+
+def raise_failure(video_key: str, error: BaseException | None) -> None:
+    """Raise what stopped a camera's encoding thread: the system's own error where the system
+    failed (a full disk: ``libero_data.cli`` turns its errno into one sentence), else a
+    RuntimeError naming the video."""
+    if isinstance(error, OSError):
+        raise error
+    raise RuntimeError(f"encoding {video_key} failed: {error!r}")
 
 
 class EpisodeVideoEncoder:
@@ -161,7 +173,7 @@ class EpisodeVideoEncoder:
             raise ValueError(f"{video_key}: expected uint8 H×W×3 frames, got {image.dtype} {image.shape}")
         while True:
             if thread.error is not None or not thread.is_alive():
-                raise RuntimeError(f"encoding {video_key} failed: {thread.error!r}")
+                raise_failure(video_key, thread.error)
             try:
                 thread.frames.put(image.copy(), timeout=1.0)
                 return
@@ -177,7 +189,7 @@ class EpisodeVideoEncoder:
         for key, thread in self._threads.items():
             thread.join()
             if thread.error is not None:
-                raise RuntimeError(f"encoding {key} failed: {thread.error!r}")
+                raise_failure(key, thread.error)
             counts = thread.counts
             stats = uint8_statistics(counts) if counts is not None and thread.written >= 2 else None
             results[key] = (thread.path, stats)
