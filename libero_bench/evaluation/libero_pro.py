@@ -81,7 +81,7 @@ def evaluate_libero_pro(
     """Evaluate ``policy`` on the base suites (or their tasks) of ``refs`` and their LIBERO-PRO
     families under the standard protocol; writes and returns the table."""
     from libero_bench.evaluation.policy_eval import EvalRequest, eval_records, evaluate_policy
-    from libero_bench.rollouts.policy_kinds import policy_source
+    from libero_bench.rollouts.policy_kinds import policy_source, shown_from
     from libero_bench.rollouts.protocol import REQUEST_OPENPI
     from libero_data.runtime.files import write_json, write_text
     from libero_data.tasks import get_suite
@@ -127,7 +127,7 @@ def evaluate_libero_pro(
         rows.append(row)
     table = {
         "benchmark": BENCHMARK,
-        "policy": source.ref,
+        "policy": shown_from(source.ref, out),
         "policy_type": source.policy_type,
         "trials_per_task": trials,
         "columns": list(COLUMNS),

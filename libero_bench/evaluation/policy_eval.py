@@ -27,7 +27,7 @@ import numpy as np
 from libero_bench.evaluation.eval_report import chart, eval_markdown, summarize_eval
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make_job
 from libero_bench.rollouts.loop import Execution
-from libero_bench.rollouts.policy_kinds import RUN, SERVER, PolicySource, policy_source
+from libero_bench.rollouts.policy_kinds import RUN, SERVER, PolicySource, policy_source, shown_from
 from libero_bench.rollouts.protocol import LIBERO_BENCH, PROTOCOLS, Protocol, get_protocol
 from libero_bench.rollouts.session import Group, RolloutSession, rollout_record
 from libero_bench.runs.folder import HELDOUT, STANDARD, STORED
@@ -291,6 +291,7 @@ def evaluate_policy(
             on_result,
         )
     summary = summarize_eval(settings, [session.records[k] for k in sorted(session.records)], starts)
+    summary["policy"] = shown_from(source.ref, session.root)
     if jobs or not session.joined:
         session.join(
             _rollouts_meta(session.root, settings),

@@ -15,9 +15,11 @@ from __future__ import annotations
 
 import functools
 import importlib
+import os
 import pkgutil
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,6 +38,14 @@ SERVER_SCHEMES = ("ws://", "wss://")
 def is_server(policy: str) -> bool:
     """Whether ``policy`` names a policy server (``ws://HOST:PORT``) rather than a folder."""
     return policy.startswith(SERVER_SCHEMES)
+
+
+def shown_from(policy: str, folder: Path) -> str:
+    """How a report in ``folder`` names ``policy``: a server by its address, a folder by its path
+    relative to ``folder`` (a report moved or committed with its policy still finds it)."""
+    if is_server(policy):
+        return policy
+    return os.path.relpath(Path(policy).resolve(), Path(folder).resolve())
 
 
 @dataclass(frozen=True)
