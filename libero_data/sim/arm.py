@@ -1,12 +1,13 @@
 """The arm's starting pose where no stored init state gives it.
 
 LIBERO's stored init states were recorded with robosuite's initialization noise: the seven arm
-joints at the robot's initial angles plus independent Gaussian noise of 0.02 rad each (measured
-over all 6,500 stored states of the five suites: 0.019 to 0.022 rad per joint, the gripper
-untouched). LIBERO's own environment turns that noise off, so starts drawn from its placement
-sampler would all begin from one arm pose, and a policy trained on them would meet the stored
-starts' arm poses for the first time at evaluation. Sampler starts therefore draw the same
-noise, from the reset seed.
+joints at the robot's initial angles plus independent Gaussian noise of 0.02 rad each,
+robosuite's default, the gripper untouched (the spread per joint over every stored state of the
+five suites: benchmarks/RESULTS.md, "Why the data was made again: the arm's starting pose").
+LIBERO's own environment turns that noise off, so starts drawn from its placement sampler would
+all begin from one arm pose, and a policy trained on them would meet the stored starts' arm
+poses for the first time at evaluation. Sampler starts therefore draw the same noise, from the
+reset seed.
 """
 
 from __future__ import annotations

@@ -12,10 +12,13 @@ the same in every process whatever it reset to first.
 
 Each renderer's copy of the model also has its large textures halved until they are at most
 :data:`TEXTURE_PER_IMAGE` times the image wide (a 4096x4096 bowl texture is 512x512 for
-agentview and 1024x1024 for the wrist at 128 px): the two GL contexts then hold about what one
-held before (resident memory after the first render of both cameras, a one-off script:
-libero_90/0 +512 MiB against +437 MiB; libero_object/0 +515 against +497), and the images
-change by ~0.0001 on average.
+agentview and 1024x1024 for the wrist at 128 px). The fixed and the mounted cameras each have a
+GL context of their own (:class:`~libero_data.sim.render.FastImages`), and each would otherwise
+hold every texture at full size: halved, the two contexts together hold about what one context
+of full-size textures would. A camera never shows more of a texture than that width, so the
+mip levels it samples, and with them the images, barely change (they are held to
+:data:`~libero_data.sim.render.FAST_MEAN_BOUND` with the rest of ``fast``:
+tests/sim/test_fast_render_scenes.py).
 
 What cannot move, from the model alone: geoms welded to the world (``body_weldid == 0``) that
 belong to the world body itself (a scene's background) or to the robot that carries a mounted
@@ -29,8 +32,9 @@ from typing import Any
 import numpy as np
 
 #: The largest simplification error allowed for the fixed cameras, in pixels at the mesh's
-#: nearest vertex. 0.25 px on libero_90/0 at 128 px: agentview drew 54 k triangles instead of
-#: 93 k, mean |fast - full| 0.0031 instead of 0.0021 (measured with the prototype of this module).
+#: nearest vertex: under a pixel, so a distant mesh's outline moves by less than a pixel while
+#: the mesh sheds most of its triangles. What it saves is the column "agentview draw, with
+#: 0.5 mm distant meshes" of benchmarks/RESULTS.md, Fast rendering.
 SCREEN_ERROR_PX = 0.25
 #: The simplification errors (metres) a distant mesh may take: few, so the cache holds few copies.
 LEVELS = (0.0005, 0.001, 0.002, 0.004, 0.008)
@@ -45,10 +49,10 @@ def mounted_cameras(model: Any, camera_ids: list[int]) -> frozenset[int]:
 
     ``fast`` draws the mounted ones without MuJoCo's mirror pass. Looking down along the gripper
     at a reflective surface, such a camera sees in it mostly the mirror image of what stands
-    between them, hidden behind the thing itself: on libero_goal/1 (the bowl put on the
-    reflective stove, 24 frames at 128 px, a one-off script) dropping the pass changed the wrist
-    image by 0.0002 on average (at most 0.001 in a frame) and cut its render by ~30% (measured
-    beside a training run). From the fixed cameras the reflection shows (agentview: 0.0056).
+    between them, hidden behind the thing itself. Dropping the pass, which draws every geom a
+    second time, therefore changes the wrist image little and saves much of its draw where a
+    reflective surface is in the scene (benchmarks/RESULTS.md, Fast rendering: the column "wrist
+    draw, with its mirror pass"). From the fixed cameras the reflection shows, so they keep it.
     """
     return frozenset(c for c in camera_ids if int(model.cam_bodyid[c]) != 0)
 

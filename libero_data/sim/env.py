@@ -31,7 +31,8 @@ log = logging.getLogger(__name__)
 CAMERAS: dict[str, str] = {"agentview": "agentview", "eye_in_hand": "robot0_eye_in_hand"}
 ACTION_DIM = 7
 #: How images are drawn: ``full`` is LIBERO's renderer as it is (pixel for pixel); ``fast``
-#: draws simplified visual meshes (libero_data.sim.render), measured close to ``full``.
+#: draws simplified visual meshes (libero_data.sim.render), held close to ``full`` by tests and
+#: measured against it in every dataset made with it.
 RENDER_QUALITIES = ("full", "fast")
 #: Zero motion, gripper open.
 NOOP_ACTION = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0])
@@ -150,7 +151,7 @@ class LiberoEnv:
             control_freq=self.config.control_freq,
             horizon=1_000_000,
             ignore_done=True,
-            hard_reset=False,  # soft resets take ~10 ms instead of seconds
+            hard_reset=False,  # a hard reset rebuilds model, simulation and renderer at every reset
             camera_names=[],
             camera_heights=self.config.image_size,
             camera_widths=self.config.image_size,

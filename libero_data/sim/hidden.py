@@ -1,10 +1,11 @@
 """Large still meshes a mounted camera cannot see, left out once the GL proves them hidden.
 
-The robot's pedestal (21 k triangles at ``fast``'s 0.5 mm) stands in every LIBERO scene under the
-robot's base, beside the table. From the wrist camera, above the table, the base and the table
-top hide it: a segmentation image of libero_90/75's first wrist frame shows no pixel of it, yet
-drawing it cost that frame ~3.8 ms of ~14 (leave-one-out, a one-off script). No plane or box test
-proves it hidden (it rises above the table top, behind the base), but the depth buffer does.
+The robot's pedestal, a large mesh even at ``fast``'s 0.5 mm, stands in every LIBERO scene
+under the robot's base, beside the table. From the wrist camera, above the table, the base and
+the table top hide it: a segmentation image of the wrist frame shows no pixel of it, yet
+drawing it is a large share of that frame's work. No plane or box test proves it hidden (it
+rises above the table top, behind the base), but the depth buffer does. What the queries save
+is the column "wrist draw, without occlusion queries" of benchmarks/RESULTS.md, Fast rendering.
 
 :class:`HiddenGeoms` draws a mounted camera's scene without the large still meshes it believes
 hidden, then asks the GL (an occlusion query) whether any sample of each one's bounding box,

@@ -1,8 +1,9 @@
 """Simplified copies of a scene's visual meshes, built once per mesh and kept in a cache.
 
-LIBERO's scenes draw 200–450 k triangles per camera frame, most of them in a few finely
-tessellated meshes (a 42 k-triangle bowl, 12–15 k per robot link) that cover a few hundred
-pixels of a 128x128 image; on a CPU (llvmpipe) the frame's cost follows the triangle count.
+Most of the triangles of a LIBERO camera frame lie in a few finely tessellated meshes (the
+bowls, the robot's links) that cover a few hundred pixels of a 128x128 image, and on a CPU
+(llvmpipe) a frame's cost follows the triangles it draws (benchmarks/RESULTS.md, Fast
+rendering, where the triangles per scene are counted at both qualities).
 ``render_quality="fast"`` draws simplified copies instead:
 
 - every mesh above :attr:`MeshSettings.min_faces` is simplified by edge collapse
@@ -48,21 +49,22 @@ class MeshSettings(Config):
     ``max_error`` is a distance in metres: 0.5 mm is under a third of a pixel for an object
     30 cm from the wrist camera at 128x128, and a tenth of one at the agentview camera.
     ``texcoord_weight`` and ``normal_weight`` scale how much a change of texture coordinate or
-    normal counts against ``max_error`` beside the change of shape. At 0.1, texture coordinates
-    drifted far enough that the wood of a table or the print on a bowl slid under the wrist
-    camera (libero_90/63: mean |fast - full| 0.0117, above
-    :data:`~libero_data.sim.render.FAST_MEAN_BOUND`, nearly all of it inside surfaces, not along
-    silhouettes); at 10 the same image differs by 0.0056 for 1% more triangles (59.7 k against
-    59.0 k drawn; a one-off script, 2026-11-27).
+    normal counts against ``max_error`` beside the change of shape. Weighed lightly, texture
+    coordinates drift far enough that the wood of a table or the print on a bowl slides under
+    the wrist camera: the image then differs from ``full`` inside surfaces, not along
+    silhouettes, by more than :data:`~libero_data.sim.render.FAST_MEAN_BOUND`. Texture
+    coordinates are therefore weighed heavily, which keeps few more triangles than a light
+    weight does (benchmarks/RESULTS.md, Fast rendering: texture coordinates drifted).
 
     ``object_normal_weight`` replaces ``normal_weight`` in the detailed copies of free objects'
     meshes (bodies on a free joint: what the tasks move) that a mounted camera draws while it is
     near them (:class:`~libero_data.sim.render.NearDetail`). A few centimetres from the wrist
-    camera a drifted normal moves the shading inside the object: pushing down onto
-    libero_90/23's bowl, 96% of the wrist image's |fast - full| (0.0123, above the bound) lay
-    inside the bowl; with the bowl at 1.0 (15.8 k of its 42.5 k triangles instead of 4.2 k) it
-    was 0.0060. All free objects at 1.0 all the time cost libero_object/8 79% more triangles
-    and ~57% more render time, hence only near (one-off scripts, 2026-11-27).
+    camera a drifted normal moves the shading inside the object, which then fills much of the
+    frame: pushing the gripper down onto a bowl, nearly all of the wrist image's |fast - full|
+    lies inside the bowl and passes the bound at ``normal_weight``, not at this weight. Every
+    free object at this weight all the time would draw many more triangles in every frame,
+    hence only near (benchmarks/RESULTS.md, Fast rendering: normals drifted on objects right
+    under the wrist camera).
     """
 
     max_error: float = 0.0005

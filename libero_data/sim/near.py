@@ -3,16 +3,16 @@
 ``fast`` simplifies every mesh to within 0.5 mm (:mod:`libero_data.sim.meshes`), with the
 normals weighed lightly. That holds a mesh's shape, but a finely bumped or curved object a few
 centimetres from the wrist camera also shows its normals: there a drifted normal moves the
-shading inside the object. Pushing the gripper down onto libero_90/23's black bowl, 96% of the
-wrist image's |fast - full| (0.0123, above :data:`~libero_data.sim.render.FAST_MEAN_BOUND`)
-lay inside the bowl, and it grew with the bowl's share of the frame. The free objects (what the
-tasks move, and what the gripper approaches) therefore get a second, detailed copy, simplified
-with :attr:`MeshSettings.object_normal_weight`; the mounted cameras' context holds it only while
-one of them is within :data:`NEAR_OBJECT_M` of the object, so the triangles it costs are drawn
-only there (every free object detailed all the time: libero_object/8 drew 79% more triangles).
-What the swap costs (libero_90/23, beside another job, a one-off script): 0.08 ms per image to
-decide, 1.8 ms when all four of its objects' meshes cross at once (taking out and uploading
-24 k triangles), which happens as the camera comes and goes, not every frame.
+shading inside the object. Pushing the gripper down onto a bowl, nearly all of the wrist
+image's |fast - full| lies inside the bowl, and it grows with the bowl's share of the frame
+until it passes :data:`~libero_data.sim.render.FAST_MEAN_BOUND` (benchmarks/RESULTS.md, Fast
+rendering). The free objects (what the tasks move, and what the gripper approaches) therefore
+get a second, detailed copy, simplified with :attr:`MeshSettings.object_normal_weight`; the
+mounted cameras' context holds it only while one of them is within :data:`NEAR_OBJECT_M` of
+the object, so the triangles it costs are drawn only there, not in every frame of every camera.
+Deciding takes one distance per camera and geom; a mesh is taken out and uploaded again only
+when a camera crosses the distance, which happens as the camera comes and goes, not every
+frame.
 """
 
 from __future__ import annotations
@@ -33,11 +33,11 @@ from libero_data.sim.meshes import (
 )
 
 #: A free object is drawn from its detailed copy (:func:`detailed_objects`) by a mounted camera
-#: within this many metres of the object's bounding sphere. Pushing the gripper down onto
-#: libero_90/23's bowl, the wrist image's |fast - full| with the coarse copies grows with the
-#: bowl's share of the frame: 0.0071 at 0.144 m, 0.0123 at 0.083 m (0.0060 with the detailed
-#: copy). Swapping at 0.15 m, the worst wrist frame along that push is 0.0064, and 0.0072 on
-#: libero_90/28 (a one-off script, 2026-11-27; tests/sim/test_fast_render_scenes.py).
+#: within this many metres of the object's bounding sphere. The nearer the camera, the more of
+#: the frame the object fills and the more the coarse copy's shading moves the wrist image
+#: away from ``full``; swapping at this distance keeps the worst wrist frame along the
+#: benchmark's push within :data:`~libero_data.sim.render.FAST_MEAN_BOUND` in every sampled
+#: scene (tests/sim/test_fast_render_scenes.py; benchmarks/RESULTS.md, Fast rendering).
 NEAR_OBJECT_M = 0.15
 
 

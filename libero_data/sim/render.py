@@ -202,9 +202,9 @@ def _cull(scene: Any, model: Any, data: Any, camera_id: int) -> int:
     ``geom_aabb``, in the geom's frame), lie beyond one of the view's four side planes or behind
     the camera. Both bounds hold all of the geom, so a geom that could touch a pixel is always
     kept: the image is the same (tested). The box is the tighter of the two for long or flat
-    geoms (a bookshelf, a wall, the robot's pedestal), whose spheres reach far into the view:
-    libero_90/75's wrist camera drew 46 k triangles instead of 64 k. Returns how many geoms
-    were left out.
+    geoms (a bookshelf, a wall, the robot's pedestal), whose spheres reach far into the view
+    from beside or behind the robot while their boxes do not (benchmarks/RESULTS.md, Fast
+    rendering: culling by bounding box as well as sphere). Returns how many geoms were left out.
     """
     import mujoco
 

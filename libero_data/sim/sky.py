@@ -4,9 +4,9 @@ MuJoCo draws the skybox after the opaque geoms: a textured cylinder of radius 0.
 plane around the camera, depth-tested, so it colours only the samples no opaque geom covers.
 LIBERO's scenes are rooms, and from their cameras every sample is covered (walls, floor, table):
 the sky changes no pixel, yet under llvmpipe it is a full-screen textured, multisampled draw
-(libero_90/75 at 128 px: 0.9 ms of agentview's frame and 1.3 ms of the wrist's; at 256 px 1.2
-and 1.5 ms; medians of 5 rounds, a one-off script). An occlusion query per frame costs about as
-much as the sky (measured the same way), so the proof is made without one per frame:
+that every frame pays for (benchmarks/RESULTS.md, Fast rendering: the column "draw with the
+sky"). An occlusion query per frame costs about as much as the sky itself, so the proof is
+made without one per frame:
 
 - A fixed camera (on the world body, fixed mode): once per pose of the camera and of what does
   not move within an episode (the world body's geoms, fixtures), those are drawn alone without
