@@ -74,8 +74,8 @@ def expert_env(
 
     Episodes do not depend on what ran before them in an environment (``reset`` and
     ``set_state`` put everything that shapes a trajectory in a canonical form), so keeping one
-    between jobs changes no result; and the first rebuild in a process measured +290 MiB
-    resident that closing the old one did not give back.
+    between jobs changes no result; and a rebuild is not free: the first one in a process
+    leaves resident memory behind that closing the old environment does not give back.
     """
     from libero_data.experts.expert import Expert, ExpertConfig
     from libero_data.sim import EnvConfig, LiberoEnv

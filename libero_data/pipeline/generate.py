@@ -47,9 +47,9 @@ LEFTOVERS = ("shards/*.tmp-*", "search/*.tmp.npz", "snapshots/*")
 class PublishClock:
     """When the growing dataset is next published.
 
-    A snapshot rebuilds the whole dataset from its shards (~0.25-0.4 s per episode here), so a
-    fixed interval would spend a growing share of the run publishing: with 500 episodes and a
-    60-s interval, most of it. The wait after a publish is therefore at least ``every``
+    A snapshot rebuilds the whole dataset from its shards, so it takes longer with every
+    episode, and a fixed interval would spend a growing share of a long run publishing, in the
+    end most of it. The wait after a publish is therefore at least ``every``
     seconds and at least long enough that publishing takes no more than ``share`` of the time.
     """
 

@@ -2,13 +2,15 @@
 
 LeRobot's own streaming encoder (``StreamingVideoEncoder``) is made for live cameras: it drops
 frames when its queue fills, and each of its threads keeps running image statistics in a
-5,000-bin float histogram per channel, whose update is ~2.5 ms of NumPy per 128² frame and
-whose re-binning loops in Python whenever a frame widens the value range. Those calls hold the
-GIL, so the rendering thread waits on them. Camera frames are ``uint8``, so exact statistics
-need only a 256-bin count per channel (~0.1 ms a frame); :class:`EpisodeVideoEncoder` keeps
-that, blocks instead of dropping frames, and otherwise hands LeRobot what its encoder would:
-one MP4 per camera (same codec and settings, LeRobot's defaults) and the statistics in the
-same layout. :class:`ShardDataset` is a ``LeRobotDataset`` that streams through it.
+5,000-bin float histogram per channel, whose update converts every pixel of every frame to
+float and bins it against float edges, and whose re-binning loops in Python whenever a frame
+widens the value range. Those calls hold the GIL, so the rendering thread waits on them. Camera
+frames are ``uint8``, so exact statistics need only a 256-bin integer count per channel, far
+less work; :class:`EpisodeVideoEncoder` keeps that, blocks instead of dropping frames, and
+otherwise hands LeRobot what its encoder would: one MP4 per camera (same codec and settings,
+LeRobot's defaults) and the statistics in the same layout. What handing it frames costs is the
+"encoding" stage of benchmarks/RESULTS.md, Generation. :class:`ShardDataset` is a
+``LeRobotDataset`` that streams through it.
 """
 
 from __future__ import annotations

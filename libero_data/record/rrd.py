@@ -2,9 +2,9 @@
 
 rerun-sdk 0.28 keeps every :class:`rerun.RecordingStream` (and everything logged to it) in
 memory after it is disconnected and dropped, until its orphan sweep runs: an evaluation
-worker writing one recording per rollout grew by ~1.5 MiB per 20-step rollout (measured,
-100 rollouts). :func:`rrd_file` runs the sweep, so a process holds at most the recording it
-is writing.
+worker writing one recording per rollout grew with every rollout. :func:`rrd_file` runs the
+sweep, so a process holds at most the recording it is writing (a worker's memory over 100
+rollouts: benchmarks/RESULTS.md, Evaluation memory).
 """
 
 from __future__ import annotations

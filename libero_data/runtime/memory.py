@@ -2,14 +2,15 @@
 
 LeRobot's streaming video encoder starts two threads per episode (one per camera). glibc
 gives new threads their own malloc arenas (up to 8 per core) and keeps freed memory in them,
-so a worker writing one episode after another grew by ~0.8 MiB per episode (measured over
-100 synthetic 20-frame episodes: +82 MiB; with two arenas: +4 MiB). Workers (and the CLI
-process, which is the worker when ``--workers 1``) cap the arenas at two.
+so a worker writing one episode after another grew with every episode as its threads filled
+fresh arenas. Workers (and the CLI process, which is the worker when ``--workers 1``) cap the
+arenas at two.
 
 Even with two arenas, which thread lands in which arena decides how much freed memory an arena
-holds on to, so the resident size flipped between two levels ~25 MiB apart, at random episodes.
-After each episode a worker hands the free memory of every arena back to the kernel
-(``malloc_trim``): the resident size then stays within ~2 MiB over 60 episodes, ~30 MiB lower.
+holds on to, so the resident size jumped between levels at random episodes. After each episode
+a worker therefore hands the free memory of every arena back to the kernel (``malloc_trim``),
+and its resident size stays level from one episode to the next (benchmarks/RESULTS.md,
+Generation memory and Evaluation memory: a worker's memory over 100 episodes or rollouts).
 """
 
 from __future__ import annotations
@@ -56,8 +57,9 @@ def limit_malloc_arenas(arenas: int = ARENAS) -> bool:
 def release_free_memory() -> bool:
     """Give the free memory of every malloc arena back to the kernel; True if glibc did it.
 
-    Takes ~4 ms (median 3.5 ms after 20-frame 128² episodes); a worker calls it between
-    episodes. A no-op (False) without glibc.
+    It walks every arena: too slow to call after every step (benchmarks/RESULTS.md, Evaluation:
+    one batched policy), little beside an episode, so a worker calls it between episodes. A
+    no-op (False) without glibc.
     """
     libc = _libc()
     if libc is None:
