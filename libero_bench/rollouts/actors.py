@@ -141,7 +141,7 @@ def forward_threads(device: Any, threads: int | None = None) -> Iterator[None]:
     (the environments wait for the policy, so nothing else needs them), and back to what they
     were after it. Between passes the driver keeps one thread: with more, the per-step work
     (stacking, normalising) would wake idle torch threads that take CPU time from the workers'
-    rendering (measured: 6.0 s instead of 4.5 s for a 40-step rollout with 2 threads)."""
+    rendering and slow every rollout (benchmarks/RESULTS.md, Evaluation: one batched policy)."""
     import torch
 
     if getattr(device, "type", str(device)) != "cpu":

@@ -73,8 +73,8 @@ def step_replay(
 #: 5 steps in) has every object within this (m, horizontally) of where that init state puts
 #: the objects after 5 steps of its own (arm still): stored init states hold objects a few cm
 #: above their supports, and in those steps they drop and may slide a few mm, about as far as
-#: two of a task's 50 init states lie apart (median 5-12 mm measured), so they are compared
-#: after the same 5 steps.
+#: two of a task's 50 init states lie apart (a median of 5-12 mm, task by task), so they are
+#: compared after the same 5 steps.
 START_MATCH = 0.005
 
 

@@ -133,9 +133,9 @@ def _clear_above(ctx: Context, part: Part, centre: np.ndarray, out: np.ndarray, 
 #: turning in place, the turn stops once it no longer gains).
 PRE_TURN = 0.2
 #: Steps without gain that end that turn. The wrist can take more than 5 steps to start
-#: turning: judged over 5, libero_goal/0 failed 20 of 50 inits (in each traced failure the
-#: turn ended after its first 5 steps, the hand stopped 3 cm short of the handle and the
-#: drawer never opened); over 10, inits 0-19 all opened it.
+#: turning: judged over 5, the turn could end before the wrist had moved; the hand then stopped
+#: short of the handle and the drawer never opened (traced on libero_goal/0; judged over 10 it
+#: opens: benchmarks/RESULTS.md, Expert: where the steps go).
 TURN_STALL = 10
 
 

@@ -197,8 +197,8 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
 
 
 #: Horizontal grip-to-shoulder distance (m) below which a top-down hand needs the elbow
-#: folded past its limit (measured on the low living-room table: 0.262 m is out of reach,
-#: 0.283 m works).
+#: folded past its limit (on the low living-room table a grip 0.262 m from the shoulder is out
+#: of reach and one 0.283 m away within it: the limit lies between).
 TOO_CLOSE = 0.275
 #: How far the hand leans back toward the robot then (the wrist moves out, the elbow opens).
 LEAN_BACK = np.deg2rad(25.0)
@@ -206,8 +206,8 @@ LEAN_BACK = np.deg2rad(25.0)
 
 #: Last arm joint angle (rad) a grasp may leave the wrist at; its stop is at 2.90. Holding
 #: an object there, the arm cannot keep the hand's orientation while it moves and stalls
-#: short of where it is sent (libero_spatial/2: a regrasp left it at 2.86 and the bowl
-#: stopped 4-7 cm short of the plate in 3 of 50 inits).
+#: short of where it is sent: after a regrasp that left the wrist near its stop, a carried bowl
+#: stopped short of the plate (benchmarks/RESULTS.md, Expert: where the steps go).
 WRIST_ROOM = 2.6
 
 
@@ -289,11 +289,12 @@ REACH_MARGIN = 1.5
 #: (a wall that tips, a burner under a finger) is usually still there 2 cm away.
 MISS_RADIUS = 0.02
 #: Grip-site distance from the shoulder (m) beyond which a top-down hand nears the
-#: straight-elbow limit (measured: the arm locks at ~0.84 m and cannot pull back in).
+#: straight-elbow limit (the arm locks straight at about 0.84 m and cannot pull back in).
 COMFORTABLE_REACH = 0.79
 #: Setting an object down takes fine moves at the end of the way: there the hand should
-#: stay closer (measured on libero_spatial/9: a bowl held on its far rim put the hand 0.77 m
-#: out over the plate and the straight elbow stalled; held on its near rim, 0.74 m worked).
+#: stay closer: a bowl held on its far rim puts the hand further out over the plate than one
+#: held on its near rim, far enough for the straight elbow to stall (on libero_spatial/9 the
+#: far rim put the hand 0.77 m out and stalled, the near rim 0.74 m and did not).
 PLACING_REACH = 0.75
 
 

@@ -132,9 +132,9 @@ def _press_drag(ctx: Context, obj: str, goal: np.ndarray, atom: Atom) -> Actions
     toward the goal: they push the rim from inside, so nothing needs room behind the dish
     (a plate against a cabinet) and the arm cannot ride over the rim.
 
-    On ``libero_goal/5`` (plate to the stove's front, its back to a cabinet) this got the
-    plate there from 10 of the first 10 inits, where strokes from behind managed 24 of 50
-    (measured in development; the expert report has the 50-init figure). Each stroke is re-aimed
+    Made for ``libero_goal/5`` (plate to the stove's front, its back to a cabinet), where
+    strokes from behind the plate often find no room; how often it succeeds there over 50
+    stored init states is in the expert report (cards/expert_report.md). Each stroke is re-aimed
     from where the dish is. Randomised: the press depth and inset. False when it did not get
     there in 6 strokes.
     """
