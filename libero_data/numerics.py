@@ -1,7 +1,7 @@
 """The numeric path of a process: pinning it, and the fingerprint that records it.
 
 Three things about a machine decide the last bits of what this package simulates
-(measurements: README, "Reproducibility"):
+(measurements: docs/reproducibility.md):
 
 1. the BLAS kernel OpenBLAS picks for the CPU (NumPy and SciPy each ship a copy, and each
    picks a kernel: SkylakeX, Haswell, Sandybridge, ...); kernels add up in different orders;

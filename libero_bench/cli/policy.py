@@ -75,7 +75,7 @@ def eval_cmd(
     features (either camera naming, any image size, the 8-D state) and its own pre- and post-processors
     run as in lerobot-eval. A server gets openpi's LIBERO observation (observation/image,
     observation/wrist_image, observation/state, prompt) and its action chunks are executed
-    --replan-steps at a time. --protocol standard reproduces openpi's LIBERO client exactly (README:
+    --replan-steps at a time. --protocol standard reproduces openpi's LIBERO client exactly (docs/evaluation.md:
     Reproducing a published LIBERO score); --benchmark libero-pro makes LIBERO-PRO's table.
     """
     quiet_environment()

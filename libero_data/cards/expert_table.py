@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 #: The success rates the expert is held to (share of stored init states solved). A suite
 #: falls short only where its 95% interval lies wholly below the target: a rate measured
 #: just under it is within what re-measuring the same expert on another numeric path moves
-#: (README, "Reproducibility"), and the table says so in words.
+#: (docs/reproducibility.md), and the table says so in words.
 TARGETS = {
     "libero_object": 0.98,
     "libero_spatial": 0.95,

@@ -60,7 +60,7 @@ def validate_cmd(
     if report.departed_elsewhere:
         say(
             f"{report.departed_elsewhere} episode(s) were made on another numeric path or by other code, where "
-            "replays can depart in the last bits (README, Reproducibility); --tolerance sets how far they may.",
+            "replays can depart in the last bits (docs/reproducibility.md); --tolerance sets how far they may.",
             stderr=True,
         )
     raise fail(f"{len(report.issues or [])} problem(s) found in {dataset}", code=1)

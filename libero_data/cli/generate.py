@@ -83,7 +83,7 @@ Levels = Annotated[
     typer.Option(
         "--level",
         help="With --variants-of: severity levels 1-5 (repeat or comma-separate; default 1). Magnitudes per level: "
-        "README, Robustness.",
+        "docs/procedural-and-robustness.md.",
     ),
 ]
 EpisodesPerTask = Annotated[

@@ -51,7 +51,7 @@ def magnitude(kind: str, level: int) -> dict[str, Any]:
 
 
 def level_table() -> str:
-    """The documented magnitudes as a Markdown table (README, cards)."""
+    """The documented magnitudes as a Markdown table (docs/procedural-and-robustness.md, cards)."""
     lines = ["| kind | parameter | 1 | 2 | 3 | 4 | 5 |", "|---|---|---|---|---|---|---|"]
     for kind, magnitudes in _lists()["MAGNITUDES"].items():
         for name, values in magnitudes.items():

@@ -4,7 +4,7 @@ robosuite computes the operational-space torques with ``np.linalg.inv``, ``np.li
 and ``np.dot``. NumPy hands those to OpenBLAS, which picks a kernel for the CPU it runs on
 (SkylakeX, Haswell, Sandybridge, ...), and each kernel adds up in its own order: the torques
 of one state differ in the last bits from one machine to another. Measured on libero_90/42
-(README, "Reproducibility"): the torques of the very first substep differ between the SkylakeX
+(docs/reproducibility.md): the torques of the very first substep differ between the SkylakeX
 and Haswell kernels (1.8e-15 N m, 5 of 7 joints), and by the end the expert's episode fails on
 one kernel and succeeds on the other.
 

@@ -324,7 +324,7 @@ def test_a_run_killed_in_the_middle_of_a_task_goes_on_with_the_same_results(
     out = tmp_path / "resumed"
     command = [sys.executable, "-m", "libero_bench.cli", "run", "--data", str(tiny_dataset), *RUN_ARGS]
     # Two environments, as bench_run: the policy's batched pass is then the same, bit for bit
-    # (another batch size may change the actions' last bits: README, "Which outcomes may differ").
+    # (another batch size may change the actions' last bits: docs/evaluation.md, "Which outcomes may differ").
     command += ["--workers", "2", "--out", str(out)]
     timings = out / "timings.jsonl"
     # Killed once the first task's epoch 1 of 2 has finished: its state (or epoch 0's) is on disk.

@@ -1,7 +1,7 @@
 """The expert's skills on a handful of tasks, as rates over several starts; and determinism.
 
-An episode's outcome is not asserted: on a machine whose numeric path differs (README,
-"Reproducibility") the same start can end otherwise. Each task is instead run from several
+An episode's outcome is not asserted: on a machine whose numeric path differs
+(docs/reproducibility.md) the same start can end otherwise. Each task is instead run from several
 stored init states, and the number of successes must reach a margin derived from the committed
 expert table (``cards/expert_report.csv``): with the lower end of the 95% interval of the task's
 measured rate, the fewest starts for which "no success" is a 0.1% event, and at least the 0.1%
