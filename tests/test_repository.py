@@ -1,5 +1,6 @@
 """The test command is what CI runs, and it checks lint, formatting and types as well as tests;
-library code carries no dates and cites no measurement that a committed script does not repeat."""
+library code carries no dates and cites no measurement that a committed script does not repeat;
+README is the front door, and its links and the docs' lead somewhere."""
 
 from __future__ import annotations
 
@@ -42,3 +43,40 @@ def test_library_code_carries_no_dates_or_unrepeatable_measurements() -> None:
                 if date.search(line) or "one-off script" in line.lower():
                     found.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()}")
     assert not found, "\n".join(found)
+
+
+#: README is the front door: what the toolkit is, the two commands, one example per capability and
+#: where to read more. The rest lives in docs/, one page per capability (issue 57).
+README_WORDS = 1_700
+#: A Markdown link or image: [text](target) or ![alt](target).
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+
+
+def _relative_links(page: Path) -> list[str]:
+    """The page's links to files in the repository (web addresses and bare anchors left out),
+    without their anchors."""
+    targets = LINK.findall(page.read_text())
+    return [t.split("#")[0] for t in targets if "://" not in t and not t.startswith(("#", "mailto:"))]
+
+
+def test_readme_is_the_front_door_and_links_to_every_docs_page() -> None:
+    readme = ROOT / "README.md"
+    words = len(readme.read_text().split())
+    assert words <= README_WORDS, f"README.md has {words} words: move detail to its page in docs/"
+    linked = {t for t in _relative_links(readme) if t.startswith("docs/")}
+    assert linked, "README.md links to no docs/ page"
+    for target in sorted(linked):
+        assert (ROOT / target).is_file(), f"README.md links to {target}, which does not exist"
+    pages = {f"docs/{p.name}" for p in (ROOT / "docs").glob("*.md")}
+    assert pages <= linked, f"docs pages README.md does not link to: {sorted(pages - linked)}"
+
+
+def test_every_relative_link_of_readme_and_the_docs_points_to_a_file() -> None:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    broken = [
+        f"{page.relative_to(ROOT)}: {target}"
+        for page in pages
+        for target in _relative_links(page)
+        if not (page.parent / target).exists()
+    ]
+    assert not broken, broken
