@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -112,7 +113,10 @@ def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
 
 
 def verdict(rate: float, high: float, target: float) -> str:
-    """A rate against its target, in words: met, below it but within the interval, or below."""
+    """A rate against its target, in words: met, below it but within the interval, or below
+    (a suite without a target, such as LIBERO-PRO's, is said to have none)."""
+    if math.isnan(target):
+        return "no target"
     if rate >= target:
         return "met"
     if high >= target:
@@ -123,7 +127,7 @@ def verdict(rate: float, high: float, target: float) -> str:
 def falls_short(summary: dict[str, float]) -> list[str]:
     """What of a suite's summary falls short: its rate, or a task under the floor (intervals)."""
     out = []
-    if summary["high"] < summary["target"]:
+    if not math.isnan(summary["target"]) and summary["high"] < summary["target"]:
         out.append(
             f"rate {summary['rate']:.1%} (interval up to {summary['high']:.1%}) under {summary['target']:.0%}"
         )
@@ -186,7 +190,7 @@ def write_report(
         )
         lines.append(
             f"| {suite} | {int(s['tasks'])} | {int(s['episodes'])} | {s['rate']:.1%} ({s['low']:.1%}–{s['high']:.1%}) "
-            f"| {s['target']:.0%} | {verdict(s['rate'], s['high'], s['target'])} | {s['lowest_task_rate']:.0%} {floor_ok} |"
+            f"| {_target(s['target'])} | {verdict(s['rate'], s['high'], s['target'])} | {s['lowest_task_rate']:.0%} {floor_ok} |"
         )
     lines += [
         "",
@@ -205,6 +209,10 @@ def write_report(
         )
     write_text(md_path, "\n".join(lines) + "\n")
     return csv_path, md_path
+
+
+def _target(target: float) -> str:
+    return "—" if math.isnan(target) else f"{target:.0%}"
 
 
 def _steps(value: float) -> str:

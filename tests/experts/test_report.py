@@ -166,3 +166,13 @@ def test_lengths_are_stated_per_suite_beside_the_human_longest(tmp_path: Path) -
     # Reports measured before lengths were recorded read as they are, without the table.
     _, old = write_report([result(0)], tmp_path / "old")
     assert "LIBERO human longest" not in old.read_text()
+
+
+def test_a_suite_without_a_target_is_said_to_have_none(tmp_path: Path) -> None:
+    from libero_data.cards.expert_table import falls_short, summarise, write_report
+
+    rows = [TaskResult("libero_goal_swap", i, f"task_{i}", 50, 30, 100.0, 1.0) for i in range(2)]
+    _, md = write_report(rows, tmp_path)
+    # LIBERO-PRO's suites have no target: no "nan%", no verdict against one, nothing falls short.
+    assert "| libero_goal_swap | 2 | 100 | 60.0% (50.2%–69.1%) | — | no target | 60% ✓ |" in md.read_text()
+    assert falls_short(summarise(rows)["libero_goal_swap"]) == []
