@@ -33,6 +33,7 @@ def reroll(
     from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
     from libero_bench.runs.saved_policy import kept_checkpoint, policy_from_checkpoint
     from libero_bench.runs.summary import load_run
+    from libero_bench.runs.training_data import resolve
     from libero_bench.train.plan import resolve_eval_task
     from libero_bench.train.rounds import run_round
     from libero_data.runtime.jobs import Executor
@@ -40,7 +41,7 @@ def reroll(
     summary = load_run(run)
     config = summary.config
     preset = config["preset"]
-    source = DemoDataset(data or config["data"])
+    source = DemoDataset(data or resolve(Path(run), config["data"]))
     embs = encode_tasks([t["language"] for t in config["tasks"]], preset["language_encoder"])
     out: dict[Any, Any] = {
         "run": str(run),

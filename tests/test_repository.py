@@ -80,3 +80,29 @@ def test_every_relative_link_of_readme_and_the_docs_points_to_a_file() -> None:
         if not (page.parent / target).exists()
     ]
     assert not broken, broken
+
+
+def test_committed_results_name_paths_relative_to_their_folder() -> None:
+    """No committed result names a path of the machine that made it; the runs a committed report
+    or sweep names, and a run's initial checkpoint, are found from the file's own folder."""
+    import json
+
+    machine = re.compile(r'["`](/work|/home|/tmp|/root|/Users|[A-Z]:\\\\)[^"`]*["`]')
+    named = []
+    for path in sorted((ROOT / "benchmarks" / "results").rglob("*")):
+        if path.suffix not in (".json", ".md", ".jsonl", ".csv") or not path.is_file():
+            continue
+        text = path.read_text()
+        assert not machine.search(text), f"{path.relative_to(ROOT)}: {machine.search(text)}"
+        if path.suffix != ".json":
+            continue
+        data = json.loads(text)
+        if path.name == "robustness.json":
+            named.append((path, data["policy"]))
+        elif path.name == "report.json" and "groups" in data:
+            named += [(path, run["path"]) for run in data["runs"]]
+        elif path.name == "config.json" and data.get("init_checkpoint"):
+            named.append((path, data["init_checkpoint"]))
+    assert len(named) >= 25  # 12 sweeps, 11 runs named by reports, 2 initial checkpoints
+    for path, name in named:
+        assert (path.parent / name).exists(), f"{path.relative_to(ROOT)} names {name}, which is not there"

@@ -11,6 +11,7 @@ the report says so. Needs numpy and matplotlib only (no torch).
 from __future__ import annotations
 
 import math
+import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
@@ -37,9 +38,9 @@ def _rows(matrix: np.ndarray) -> list[list[float | None]]:
     return [[_finite(v) for v in row] for row in matrix.tolist()]
 
 
-def _run_row(run: RunSummary) -> dict[str, Any]:
+def _run_row(run: RunSummary, out: Path) -> dict[str, Any]:
     row: dict[str, Any] = {
-        "path": str(run.path),
+        "path": os.path.relpath(run.path.resolve(), out),
         "algo": run.config["algo"],
         "policy": run.config["policy"],
         "preset": run.config["preset"]["name"],
@@ -79,7 +80,7 @@ def _step_limits(run: RunSummary) -> dict[str, int]:
     return {t["name"]: step_limit(limit, suite) for t in run.config["tasks"]}
 
 
-def _group_row(key: tuple[Any, ...], members: list[RunSummary], slug: str) -> dict[str, Any]:
+def _group_row(key: tuple[Any, ...], members: list[RunSummary], slug: str, out: Path) -> dict[str, Any]:
     row: dict[str, Any] = {
         "label": members[0].label,
         "slug": slug,
@@ -87,7 +88,7 @@ def _group_row(key: tuple[Any, ...], members: list[RunSummary], slug: str) -> di
         "policy": key[1],
         "preset": key[2],
         "tasks": list(key[3]),
-        "runs": [str(m.path) for m in members],
+        "runs": [os.path.relpath(m.path.resolve(), out) for m in members],
         "seeds": [m.config["seed"] for m in members],
         "tasks_done": min(m.tasks_done for m in members),
         "notes": [note for m in members for note in m.notes()],
@@ -109,8 +110,10 @@ def _group_row(key: tuple[Any, ...], members: list[RunSummary], slug: str) -> di
     return row
 
 
-def summarize(runs: Sequence[RunSummary]) -> dict[str, Any]:
-    """Every number of the report: per run, and per group of runs (the seeds of a method)."""
+def summarize(runs: Sequence[RunSummary], out: str | Path = ".") -> dict[str, Any]:
+    """Every number of the report: per run, and per group of runs (the seeds of a method); run
+    folders are named relative to ``out``, the report's folder."""
+    out = Path(out).resolve()
     groups: dict[tuple[Any, ...], list[RunSummary]] = {}
     for run in runs:
         groups.setdefault(run.group, []).append(run)
@@ -125,10 +128,10 @@ def summarize(runs: Sequence[RunSummary]) -> dict[str, Any]:
         if slug in used:
             slug = f"{slug}-{len(used)}"
         used.add(slug)
-        row = _group_row(key, members, slug)
+        row = _group_row(key, members, slug, out)
         row["label"] = row_label
         group_rows.append(row)
-    return {"runs": [_run_row(r) for r in runs], "groups": group_rows}
+    return {"runs": [_run_row(r, out) for r in runs], "groups": group_rows}
 
 
 def _cell(stat: dict[str, Any] | None) -> str:
@@ -206,14 +209,14 @@ def write_report(run_paths: Sequence[str | Path], out: str | Path) -> dict[str, 
     runs = [load_run(p) for p in run_paths]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = summarize(runs)
+    summary = summarize(runs, out)
     files = []
     for group in summary["groups"]:
-        members = [r for r in runs if str(r.path) in group["runs"]]
+        members = [r for r in runs if os.path.relpath(r.path.resolve(), out.resolve()) in group["runs"]]
         files.extend(group_plots(members, group, out))
     if len(summary["groups"]) > 1:
         files.append(methods_plot(summary["groups"], out))
     files.append(write_text(out / "report.md", "# libero-bench report\n\n" + markdown_table(summary)))
-    summary["files"] = [str(p) for p in [*files, out / "report.json"]]
+    summary["files"] = [os.path.relpath(p, out) for p in [*files, out / "report.json"]]
     write_json(out / "report.json", summary)
     return summary

@@ -25,9 +25,10 @@ logger = logging.getLogger(__name__)
 def _episode_for(folder: RunFolder, config: dict, chosen: dict, source: str, rollout: int) -> tuple[Any, int]:
     """(dataset, episode index) of the task's first demonstration or its ``rollout``-th rollout."""
     from libero_bench.data.dataset import DemoDataset
+    from libero_bench.runs.training_data import resolve
 
     if source == "demo":
-        data = DemoDataset(config["data"])
+        data = DemoDataset(resolve(folder.root, config["data"]))
         episodes = chosen.get("episodes") or list(data.task(chosen["name"]).episodes)
         return data, int(episodes[0])
     if source == "rollout":

@@ -1,4 +1,5 @@
-"""``libero-bench migrate``: pickled checkpoints of earlier versions to safetensors."""
+"""``libero-bench migrate``: run folders of earlier versions brought up to date (pickled
+checkpoints to safetensors, the record of their training starts)."""
 
 from __future__ import annotations
 
@@ -23,16 +24,22 @@ def migrate_cmd(
         ),
     ] = None,
 ) -> None:
-    """Convert pickled checkpoints (.pt, from libero-bench before safetensors) to safetensors.
+    """Bring an earlier run folder up to date, or convert one pickled checkpoint to safetensors.
 
     Every other command refuses pickles, because opening one can run code. This one reads them
     with torch's restricted loader (weights_only=True: tensors, numbers, strings, NumPy arrays),
     which refuses a pickle that would run code; still, convert only files you trust. A run
     folder's .pt files are replaced by their .safetensors once those read back; the run then
-    resumes, evaluates and serves as before.
+    resumes, evaluates and serves as before. A run folder from before runs recorded where their
+    demonstrations started also gets that record (training_data.json), read from its datasets
+    while they are there: it is what held-out evaluation and robustness sweeps of the run need
+    once the datasets are gone (a run copied elsewhere, a committed run).
     """
     from libero_bench.runs.migrate import WARNING, migrate
 
-    for done in migrate(path, out):
-        say(f"converted {done.source} -> {done.target} ({done.kind})")
-    say(f"note: {WARNING}", stderr=True)
+    done = migrate(path, out)
+    for step in done:
+        verb = "recorded" if step.kind == "training data" else "converted"
+        say(f"{verb} {step.source} -> {step.target} ({step.kind})")
+    if any(step.kind != "training data" for step in done):
+        say(f"note: {WARNING}", stderr=True)

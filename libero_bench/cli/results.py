@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated
 
@@ -34,10 +35,11 @@ def report_cmd(
     """FWT / NBT / AUC with 95% intervals, from stored and held-out starts; success matrix, curves and metrics (PNG); JSON."""
     from libero_bench.analysis.report import table_rows, write_report
 
-    summary = write_report(runs, out or (runs[0] / "report"))
+    folder = out or (runs[0] / "report")
+    summary = write_report(runs, folder)
     print_table(table_rows(summary))
-    for path in summary["files"]:
-        say(f"wrote {path}")
+    for path in summary["files"]:  # named relative to the report's folder
+        say(f"wrote {folder / path}")
 
 
 @user_errors
@@ -87,6 +89,8 @@ def compare_cmd(
             for name, metric in (block["difference"] or {}).get("metrics", {}).items():
                 say(f"{start} starts, {metric_line(name, metric)}")
     if out is not None:
+        for side in ("a", "b"):  # the runs named from the comparison's folder, which may move with them
+            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), out.resolve())
         write_json(out / "compare.json", result)
         write_text(out / "compare.md", text)
         say(f"wrote {out / 'compare.json'} and {out / 'compare.md'}")

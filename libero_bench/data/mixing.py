@@ -22,6 +22,7 @@ counted in ``config.json`` (``evaluation.training_starts``) as the run's own are
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -85,12 +86,16 @@ class MixPlan:
         episode without a record of it is refused when the plan is made)."""
         return _starts(self.sources, [(e.dataset, e.episode) for e in self.episodes.get(position, [])])
 
-    def config(self, tasks: Sequence[DemoTask]) -> dict[str, Any]:
-        """The ``mix`` entry of the run's ``config.json``."""
+    def config(self, tasks: Sequence[DemoTask], root: Path) -> dict[str, Any]:
+        """The ``mix`` entry of the config.json of the run in ``root`` (datasets named relative to it)."""
         out: dict[str, Any] = {
             "weight": self.weight,
             "datasets": [
-                {"data": str(s.root.resolve()), "repo_id": s.repo_id, "episodes": len(s.episode_meta)}
+                {
+                    "data": os.path.relpath(s.root.resolve(), root.resolve()),
+                    "repo_id": s.repo_id,
+                    "episodes": len(s.episode_meta),
+                }
                 for s in self.sources
             ],
             "tasks": {},
@@ -237,15 +242,15 @@ def mixed_windows(
     return MixedWindows(base, parts, mix.weight)
 
 
-def mixed_seeds(config: dict[str, Any]) -> dict[str, set[int]]:
-    """Per task of a run (its ``config.json``), the sampler seeds its mixed episodes began from;
-    empty for a run that mixed nothing."""
+def mixed_seeds(config: dict[str, Any], root: Path | None = None) -> dict[str, set[int]]:
+    """Per task of a run (its ``config.json``; its folder ``root``, which relative dataset paths
+    start from), the sampler seeds its mixed episodes began from; empty for a run that mixed nothing."""
     from libero_bench.data.dataset import DemoDataset
 
     mix = config.get("mix")
     if not mix:
         return {}
-    sources = [DemoDataset(d["data"]) for d in mix["datasets"]]
+    sources = [DemoDataset(Path(root or ".") / d["data"]) for d in mix["datasets"]]
     return {name: _starts(sources, entry["episodes"])[1] for name, entry in mix["tasks"].items()}
 
 

@@ -193,8 +193,9 @@ def sweep_markdown(summary: dict[str, Any], levels: tuple[int, ...]) -> str:
         "| kind | " + " | ".join(f"level {level}" for level in levels) + " |",
         "|---|" + "---:|" * len(levels),
     ]
-    for kind, row in summary["table"]["grid"].items():
-        lines.append(f"| {kind} | " + " | ".join(cell(row[str(level)]) for level in levels) + " |")
+    grid = summary["table"]["grid"]
+    for kind in [k for k in summary["request"]["kinds"] if k in grid]:  # the order asked (JSON sorts keys)
+        lines.append(f"| {kind} | " + " | ".join(cell(grid[kind][str(level)]) for level in levels) + " |")
     missing = [c for c in summary["table"]["cells"] if c["reason"]]
     if missing:
         lines.append("")

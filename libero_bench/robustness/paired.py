@@ -254,8 +254,14 @@ def heatmaps(result: dict[str, Any], path: Path) -> Path:
 
 
 def write_comparison(result: dict[str, Any], out: Path) -> list[Path]:
+    import os
+
     from libero_data.runtime.files import write_json, write_text
 
+    for side in ("a", "b"):  # the sweeps named from the comparison's folder
+        result[side]["sweeps"] = [
+            os.path.relpath(Path(p).resolve(), out.resolve()) for p in result[side]["sweeps"]
+        ]
     return [
         write_json(out / "compare.json", result),
         write_text(out / "compare.md", paired_markdown(result)),

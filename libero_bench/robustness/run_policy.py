@@ -36,11 +36,11 @@ def run_outcomes(
     """Outcomes (in rollout order) per cell name, the policy's name for the report and the
     held-out seeds per source task. Once the rollouts are joined in ``out/rollouts`` their shards
     are removed unless ``keep_work``."""
-    from libero_bench.data.dataset import DemoDataset
     from libero_bench.rollouts.actors import PolicyActor
     from libero_bench.rollouts.policy_kinds import policy_source
     from libero_bench.rollouts.session import RolloutSession
     from libero_bench.runs.saved_policy import load_run_policy
+    from libero_bench.runs.training_data import run_training_data
 
     source = policy_source(str(run))
     names = list(source.tasks)
@@ -57,7 +57,7 @@ def run_outcomes(
     # Distractors add objects and a swap may bring another body: the widest state sets the width.
     width = max(
         [
-            DemoDataset(config["data"]).sim_state_width,
+            run_training_data(run, config).sim_state_width,
             *(state_width(c.bddl) for c in live if c.kind in WIDER_KINDS),
         ]
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,7 @@ def sweep(
 ) -> dict[str, Any]:
     """Run the sweep for ``policy`` (a libero-bench run folder, a LeRobot policy folder or a
     policy server, ``ws://HOST:PORT``); ``keep_work`` keeps the rollouts' shards once joined."""
-    from libero_bench.rollouts.policy_kinds import RUN, check_policy, is_server
+    from libero_bench.rollouts.policy_kinds import RUN, check_policy, is_server, shown_from
     from libero_data.runtime.versions import versions
 
     execution = execution or Execution()
@@ -53,13 +54,16 @@ def sweep(
         outcomes, name, seeds = _lerobot_outcomes(
             source, request, cells, out, execution, on_result, on_total, keep_work
         )
+    shown = table(cells, outcomes, request.kinds, request.levels)
+    for cell in shown["cells"]:  # named from the sweep's folder, so the folder can move
+        cell["bddl"] = os.path.relpath(cell["bddl"], out)
     summary = {
-        "policy": ref,
+        "policy": shown_from(ref, out),
         "policy_name": name,
         "request": dataclasses.asdict(request),
         "step_limits": request.step_limits(),
         "versions": versions(),
-        "table": table(cells, outcomes, request.kinds, request.levels),
+        "table": shown,
         # what a paired comparison of two sweeps needs (libero_bench.robustness.paired)
         "heldout_seeds": {name: list(s) for name, s in seeds.items()},
         "outcomes": {name: [bool(ok) for ok in oks] for name, oks in sorted(outcomes.items())},

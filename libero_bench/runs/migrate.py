@@ -1,4 +1,6 @@
-"""Converting the pickled checkpoints of earlier libero-bench versions to safetensors.
+"""Bringing a run folder of an earlier libero-bench version up to date: its pickled checkpoints
+converted to safetensors, and the record of where its demonstrations started
+(:mod:`libero_bench.runs.training_data`) written while its datasets are still there.
 
 Before checkpoints were safetensors (:mod:`libero_bench.runs.state_files`), a run folder kept
 ``checkpoints/task_NNN.pt`` and ``task_NNN.epoch.pt`` written by ``torch.save``. Those are
@@ -18,9 +20,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_bench.runs.folder import CHECKPOINTS, RUN_FORMAT
+from libero_bench.runs.folder import CHECKPOINTS, RUN_FORMAT, RunFolder
 from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE
 from libero_bench.runs.state_files import SUFFIX, load_state, load_weights, save_state
+from libero_bench.runs.training_data import TRAINING_DATA, resolve, write_training_data
 from libero_data.errors import CheckpointError, MissingFileError
 
 logger = logging.getLogger(__name__)
@@ -41,8 +44,9 @@ class Converted:
 
 
 def migrate(path: Path, out: Path | None = None) -> list[Converted]:
-    """Convert a run folder's pickled checkpoints (each ``.pt`` replaced by its ``.safetensors``)
-    or one pickled checkpoint or state dict (to ``out``, default: beside it)."""
+    """Bring a run folder up to date (each pickled ``.pt`` replaced by its ``.safetensors``; its
+    ``training_data.json`` recorded from its datasets) or convert one pickled checkpoint or state
+    dict (to ``out``, default: beside it)."""
     path = Path(path)
     if path.is_dir():
         if out is not None:
@@ -50,9 +54,23 @@ def migrate(path: Path, out: Path | None = None) -> list[Converted]:
                 f"{path} is a run folder: its checkpoints are converted in place, without --out"
             )
         pickled = sorted((path / CHECKPOINTS).glob("*.pt"))
-        if not pickled:
-            raise MissingFileError(f"{path / CHECKPOINTS} holds no pickled checkpoints (*.pt) to convert")
-        return [_convert(p, p.with_name(p.name[: -len(".pt")] + SUFFIX), remove=True) for p in pickled]
+        recorded = (path / TRAINING_DATA).is_file()
+        if not pickled and recorded:
+            raise MissingFileError(
+                f"{path / CHECKPOINTS} holds no pickled checkpoints (*.pt) to convert and the run records "
+                f"its training data ({TRAINING_DATA}) already: nothing to migrate"
+            )
+        done = [_convert(p, p.with_name(p.name[: -len(".pt")] + SUFFIX), remove=True) for p in pickled]
+        if not recorded:  # a run from before runs recorded where their demonstrations started
+            config = RunFolder(path).read_config()
+            try:
+                written = write_training_data(path, config)
+            except MissingFileError:
+                if not done:
+                    raise  # its datasets are gone and there was nothing else to do: say so
+            else:
+                done.append(Converted(resolve(path, str(config["data"])), written, "training data"))
+        return done
     if not path.is_file():
         raise MissingFileError(f"{path} does not exist")
     target = out if out is not None else path.with_suffix(SUFFIX)

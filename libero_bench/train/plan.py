@@ -135,15 +135,17 @@ class RunPlan:
             ],
         }
 
-    def config(self, options: RunOptions) -> dict[str, Any]:
-        """The run's ``config.json`` (everything but ``runtime`` must match to resume)."""
+    def config(self, options: RunOptions, root: Path) -> dict[str, Any]:
+        """The ``config.json`` of the run in ``root`` (everything but ``runtime`` must match to
+        resume); the datasets and the initial checkpoint are named relative to ``root``."""
+        from libero_bench.runs.training_data import relative
         from libero_data.runtime.versions import versions
 
         req = self.request
         demos = self.preset.demos_per_task
         return {
             "format": RUN_FORMAT,
-            "data": str(self.source.root.resolve()),
+            "data": relative(root, self.source.root),
             "dataset": {
                 "repo_id": self.source.repo_id,
                 "suite": self.source.suite,
@@ -167,7 +169,7 @@ class RunPlan:
             "policy_config": self.policy_config,
             "preset": self.preset.to_dict(),
             "seed": self.seed,
-            "init_checkpoint": str(req.init_checkpoint.resolve()) if req.init_checkpoint else None,
+            "init_checkpoint": relative(root, req.init_checkpoint) if req.init_checkpoint else None,
             "evaluation": {
                 "stored_rollouts": self.preset.eval_rollouts,
                 "heldout_rollouts": self.preset.eval_heldout,
@@ -176,7 +178,7 @@ class RunPlan:
                 "heldout_arm_noise": ARM_INIT_NOISE,
                 "training_starts": start_overlap(self.source, self.tasks, self.preset, self.mix),
             },
-            **({"mix": self.mix.config(self.tasks)} if self.mix is not None else {}),
+            **({"mix": self.mix.config(self.tasks, root)} if self.mix is not None else {}),
             "runtime": {
                 "device": options.device,
                 "workers": options.executor.workers,

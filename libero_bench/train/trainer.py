@@ -113,15 +113,18 @@ class Trainer:
         return self._results
 
     def _prepare_folder(self) -> RunResults:
-        config = self.plan.config(self.options)
+        from libero_bench.runs.training_data import TRAINING_DATA, with_relative_paths, write_training_data
+
         root = self.folder.root
+        config = self.plan.config(self.options, root)
         if self.folder.config.is_file():
             self.folder.refuse_pickles()  # whatever the settings: a pickled checkpoint is never opened
             saved = self.folder.read_config()
             if self.folder.results.is_file():
                 self.folder.read_results()  # a damaged results.json is refused before anything is written
             preset = TrainPreset.upgrade(saved.get("preset", {}))
-            changed = changed_keys({**saved, "preset": preset}, config, ignore=RUNTIME_KEYS)
+            named = with_relative_paths(saved, root)  # an older run named its data absolutely
+            changed = changed_keys({**named, "preset": preset}, config, ignore=RUNTIME_KEYS)
             if changed:
                 raise SettingsChanged(
                     f"{root} holds a run with a different {changed[0]!r}; resume it with the same settings "
@@ -139,6 +142,8 @@ class Trainer:
             check_out_folder(root)
             root.mkdir(parents=True, exist_ok=True)
             write_json(self.folder.config, config)
+        if not (root / TRAINING_DATA).is_file():  # what evaluating it needs, should its data go
+            write_training_data(root, config)
         if self.folder.results.is_file():
             results = self.folder.read_results()
         else:

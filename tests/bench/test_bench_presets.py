@@ -68,7 +68,7 @@ def test_augment_overrides_the_policy_default_and_runs_made_before_it_resume(tin
         quick.with_overrides(["augment=3"])
     default = plan_run(RunRequest(data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick))
     assert default.policy_config["augment"] is False  # the policy size's own default
-    assert default.config(RunOptions())["preset"]["augment"] is None
+    assert default.config(RunOptions(), tmp_path / "run")["preset"]["augment"] is None
     # A run made before the field existed: its config.json has no augment; it resumes as None.
     Trainer(default, tmp_path / "run").prepare()
     config_path = tmp_path / "run" / "config.json"
@@ -81,6 +81,9 @@ def test_augment_overrides_the_policy_default_and_runs_made_before_it_resume(tin
             data=tiny_dataset, algo="seql", policy="resnet_t", preset=quick.with_overrides(["augment=true"])
         )
     )
-    assert on.policy_config["augment"] is True and on.config(RunOptions())["preset"]["augment"] is True
+    assert (
+        on.policy_config["augment"] is True
+        and on.config(RunOptions(), tmp_path / "run")["preset"]["augment"] is True
+    )
     with pytest.raises(SettingsChanged):  # but not as augmented
         Trainer(on, tmp_path / "run").prepare()

@@ -207,7 +207,8 @@ def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) 
 
     # The report of the two sets their FWT, NBT and AUC side by side.
     summary = write_report([seql, er], tmp_path / "report")
-    assert str(tmp_path / "report" / "methods_metrics.png") in summary["files"]
+    assert "methods_metrics.png" in summary["files"]  # named from the report's folder
+    assert summary["runs"][0]["path"] == "../seql" and summary["groups"][1]["runs"] == ["../er"]
     assert (tmp_path / "report" / "methods_metrics.png").read_bytes()[:4] == b"\x89PNG"
 
 

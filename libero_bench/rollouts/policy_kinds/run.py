@@ -52,25 +52,18 @@ def run_source(policy: str, options: SourceOptions) -> PolicySource:
         reads=PolicyActor.reads,
         embed=lambda prompts: np.asarray(checked.embed(list(prompts)), dtype=np.float32),
         tasks=tasks,
-        starts=lambda: run_training_starts(config),
+        starts=lambda: run_training_starts(folder, config),
     )
 
 
-def run_training_starts(config: dict[str, Any]) -> TrainingStarts:
-    """Where a run's demonstrations started, per task: its dataset's and those of any dataset
-    mixed in (the run's ``config.json``)."""
-    from libero_bench.data.dataset import DemoDataset
-    from libero_bench.data.mixing import mixed_seeds
+def run_training_starts(folder: Path, config: dict[str, Any]) -> TrainingStarts:
+    """Where a run's demonstrations started, per task (its dataset's and those of any dataset
+    mixed in): the run's own record, or its datasets' for a run that predates it."""
+    from libero_bench.runs.training_data import run_training_data
 
-    source = DemoDataset(config["data"])
-    mixed = mixed_seeds(config)
-    found: dict[str, tuple[set[int], set[int]]] = {}
-    for task in config["tasks"]:
-        name = task["name"]
-        starts = source.training_starts(source.task(name))
-        stored, seeds = starts if starts is not None else (set(), set())
-        found[name] = (set(stored), set(seeds) | mixed.get(name, set()))
-    return str(config["data"]), found
+    data = run_training_data(folder, config)
+    found = {name: (set(stored), set(seeds)) for name, (stored, seeds) in data.starts.items()}
+    return data.datasets[0], found
 
 
 register_kind(PolicyKind(RUN, 10, is_run, run_source))
