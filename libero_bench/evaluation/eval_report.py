@@ -48,7 +48,7 @@ def summarize_eval(
             row[start] = rate.to_dict() if rate.n else None
         rows.append(row)
     notes = []
-    if settings["training_data"] is None:
+    if settings["training_data"] is None and any(r["start"] == HELDOUT for r in records):
         notes.append(
             "the policy's training data is not known (a served policy, or a folder without train_config.json): "
             "held-out starts skip no training seed"
