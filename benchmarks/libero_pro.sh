@@ -2,7 +2,8 @@
 # Our committed libero_object/0 policies (benchmarks/results/robustness_data/runs/) under LIBERO-PRO
 # (the standard protocol on libero_object/0 and its four LIBERO-PRO families, 10 episodes each) and
 # under our default protocol from the same stored init states; then the report
-# (benchmarks/libero_pro_report.py) into benchmarks/results/libero_pro/.
+# (benchmarks/libero_pro_report.py) into benchmarks/results/libero_pro/, which also names each
+# policy in the copied reports from where they are committed.
 #
 #   benchmarks/libero_pro.sh [WORK_DIR]     (default WORK_DIR: ../libero-pro-work)
 #

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,7 @@ from libero_bench.analysis.compare import Paired
 from libero_bench.evaluation.libero_pro import COLUMNS
 from libero_bench.runs.intervals import Rate
 
+RUNS = Path(__file__).resolve().parent / "results" / "robustness_data" / "runs"
 POLICIES = ("single-object-0", "single-aug-object-0", "mixed-more-object-0")
 LABELS = {
     "single-object-0": "A (quick, 100 demonstrations)",
@@ -136,12 +138,31 @@ def markdown(report: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def name_policies(root: Path) -> None:
+    """Name each policy in the copied reports from where they are committed: the reports were
+    written in a work folder, and name the run relative to it."""
+    from libero_bench.evaluation.eval_report import eval_markdown
+    from libero_bench.evaluation.libero_pro import pro_markdown
+    from libero_data.runtime.files import write_json, write_text
+
+    for policy in POLICIES:
+        for report in sorted((root / policy).glob("*.json")) + sorted((root / policy).glob("*/report.json")):
+            summary = json.loads(report.read_text())
+            summary["policy"] = os.path.relpath(RUNS / policy, report.parent.resolve())
+            write_json(report, summary)
+            if report.name == "libero_pro.json":
+                write_text(report.with_suffix(".md"), pro_markdown(summary))
+            else:
+                write_text(report.with_suffix(".md"), eval_markdown(summary))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--results", default="benchmarks/results/libero_pro", type=Path)
     args = parser.parse_args()
+    name_policies(args.results)
     report = summary(args.results)
     (args.results / "summary.json").write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
     (args.results / "summary.md").write_text(markdown(report))

@@ -101,8 +101,10 @@ def test_committed_results_name_paths_relative_to_their_folder() -> None:
             named.append((path, data["policy"]))
         elif path.name == "report.json" and "groups" in data:
             named += [(path, run["path"]) for run in data["runs"]]
+        elif path.name in ("report.json", "libero_pro.json") and "policy" in data:  # an evaluation's
+            named.append((path, data["policy"]))
         elif path.name == "config.json" and data.get("init_checkpoint"):
             named.append((path, data["init_checkpoint"]))
-    assert len(named) >= 25  # 12 sweeps, 11 runs named by reports, 2 initial checkpoints
+    assert len(named) >= 45  # 12 sweeps, 11 runs named by reports, 2 initial checkpoints, 21 evaluations
     for path, name in named:
         assert (path.parent / name).exists(), f"{path.relative_to(ROOT)} names {name}, which is not there"
