@@ -1,8 +1,10 @@
 """What a generated dataset says about itself: ``meta/libero.json`` and its card (``README.md``).
 
 Both are derived from the request, the finished shards and the suite: per task its goal, the
-episodes kept and the expert's attempts; the settings, versions, expert codes, and the machines
-and renderers that made the episodes; for a generated suite, the generator's settings.
+episodes kept and the attempts; the settings, versions, expert codes, and the machines and
+renderers that made the episodes; for a generated suite, the generator's settings. What the
+demonstrations are (the summary, where they started, the card's sections and the settings rows
+of their own) comes from their source (:mod:`~libero_data.pipeline.sources`).
 """
 
 from __future__ import annotations
@@ -12,8 +14,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from libero_data.pipeline.request import STORED_INITS, GenerateRequest, Slot
-from libero_data.sim.arm import ARM_INIT_NOISE
+from libero_data.pipeline.request import GenerateRequest, Slot
+from libero_data.pipeline.sources.scripted import start_note, start_words
 
 
 def describe_dataset(
@@ -31,7 +33,7 @@ def describe_dataset(
     from libero_data.cards import render_card
     from libero_data.cards.card import FAST_IMAGE_NOTE, FULL_IMAGE_NOTE
     from libero_data.cards.expert_table import length_line
-    from libero_data.hdf5.card_rows import HUMAN_SECTIONS, import_settings, import_start_note
+    from libero_data.pipeline.sources import source_of
     from libero_data.runtime.versions import versions
     from libero_data.tasks import get_suite
 
@@ -71,21 +73,11 @@ def describe_dataset(
         **provenance.card_settings(machines, renderers),
         **_generator_settings(suite.manifest(), len(suite.tasks)),
         **_perturbation_rows([suite.task(i) for i in request.tasks]),
-        **(import_settings(request.imported, infos, request.drop_noops) if request.imported else {}),
     }
-    if request.imported:  # no expert, seed or attempts: where they began is measured per episode
-        for key in ("seed", "attempts per episode (at most)", "expert code"):
-            settings.pop(key, None)
-        settings["starts"] = "where each human demonstration began, measured (began from a stored init state)"
+    part = source_of(request).card(request, suite.name, infos)  # what the demonstrations are
     card = render_card(
         title=f"libero-data · {suite.name}",
-        summary=(
-            f"Human demonstrations of the LIBERO suite `{suite.name}` (LIBERO's own, imported from its HDF5 files), "
-            "re-rendered from their stored states with libero-data in LeRobot v3 format."
-            if request.imported
-            else f"Scripted demonstrations of the LIBERO suite `{suite.name}`, made with libero-data in LeRobot v3 format."
-        )
-        + (f" Re-rendered from the stored states of `{request.source}`." if request.source else ""),
+        summary=part.summary,
         suite=suite.name,
         repo_id=request.repo_id,
         load_path=".",
@@ -96,13 +88,11 @@ def describe_dataset(
         fps=20,
         image_size=request.image_size,
         sim_state_width=width,
-        settings=settings,
-        start_note=import_start_note(infos)
-        if request.imported
-        else start_note(request.starts, request.episodes_per_task, request.arm_noise),
+        settings=part.apply(settings),
+        start_note=part.start_note,
         camera_keys=request.layout.camera_keys,
         image_note=FAST_IMAGE_NOTE if request.render_quality == "fast" else FULL_IMAGE_NOTE,
-        **(HUMAN_SECTIONS if request.imported else {}),
+        **part.sections,
     )
     meta = {
         "request": request.to_dict(),
@@ -128,58 +118,6 @@ def _task_meta(t: Any) -> dict[str, Any]:
         "attempts": t.attempts,
         "successes": t.successes,
     }
-
-
-#: The card's settings row for each kind of start.
-START_WORDS = {
-    "sampler": "LIBERO's placement sampler, demonstration seeds (no stored init state)",
-    "stored": "LIBERO's stored init states (the paper's evaluation starts), then the sampler",
-}
-
-
-def start_words(starts: str, arm_noise: float) -> str:
-    """The card's settings row for the starts."""
-    arm = f"arm joints + N(0, {arm_noise:g} rad)" if arm_noise else "the arm at LIBERO's initial pose"
-    return f"{START_WORDS[starts]}; sampler starts: {arm}"
-
-
-def arm_words(arm_noise: float) -> str:
-    """How the card says a sampler start holds the arm."""
-    if arm_noise == 0:
-        return (
-            "with the arm at LIBERO's initial pose (no noise: the stored init states have "
-            f"{ARM_INIT_NOISE:g} rad per joint)"
-        )
-    return (
-        f"with the arm's seven joints offset by Gaussian noise of {arm_noise:g} rad drawn from the same seed "
-        f"(LIBERO's stored init states have {ARM_INIT_NOISE:g} rad; LIBERO's environment itself starts every reset "
-        "from one arm pose)"
-    )
-
-
-def start_note(starts: str, episodes_per_task: int, arm_noise: float) -> str:
-    """Where the card says the episodes started."""
-    if starts == "sampler":
-        return (
-            "Every episode starts from a placement drawn by LIBERO's own sampler for its task, seeded from the "
-            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1), "
-            f"{arm_words(arm_noise)}. No episode "
-            "starts from LIBERO's 50 stored init states, which the paper's evaluation uses, and libero-bench draws "
-            "its held-out evaluation placements from another seed stream: a policy trained on this dataset is "
-            "evaluated on starts it never saw."
-        )
-    stored = min(episodes_per_task, STORED_INITS)
-    note = (
-        f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init "
-        "state k), the states the paper's evaluation starts from: a policy evaluated on them has seen its starts "
-        "in training. "
-        + (
-            f"Further episodes start from placements drawn by LIBERO's own sampler for that task, seeded, {arm_words(arm_noise)}."
-            if episodes_per_task > STORED_INITS
-            else ""
-        )
-    )
-    return note.strip()
 
 
 def _card_task(task: Any, episodes: int, attempts: int, successes: int) -> Any:

@@ -1,9 +1,10 @@
 """Making one task's episodes (the job ``generate`` runs in its workers): search, then record.
 
-For each slot the expert searches without cameras, retrying with new seeds until an attempt
-succeeds (failed attempts are discarded); the search's record is saved at once. The kept
-episode is then re-rendered from its states and written as a one-episode shard with its MCAP
-log. Both are files under the work folder: ``search/<key>.npz`` and ``shards/<key>/``.
+For each slot the request's demonstration source (:mod:`~libero_data.pipeline.sources`) makes
+its record (the expert searches without cameras, retrying with new seeds until an attempt
+succeeds); the record is saved at once, unless the source wrote it before the job (an import).
+The kept episode is then re-rendered from its states and written as a one-episode shard with its
+MCAP log. Both are files under the work folder: ``search/<key>.npz`` and ``shards/<key>/``.
 """
 
 from __future__ import annotations
@@ -17,10 +18,10 @@ import numpy as np
 
 from libero_data.errors import DatasetError
 from libero_data.pipeline.request import GenerateRequest, Slot
+from libero_data.pipeline.sources import EpisodeRecord, source_of
 from libero_data.record.features import CAMERAS
-from libero_data.runtime.files import load_record, save_record, write_bytes
+from libero_data.runtime.files import write_bytes
 from libero_data.runtime.jobs import WorkerCache, WorkerContext
-from libero_data.seeding import demo_key, episode_seeds
 from libero_data.sim.arm import ARM_INIT_NOISE
 
 #: The fingerprint of an episode searched before fingerprints were recorded.
@@ -91,86 +92,44 @@ def expert_env(
     return cache.get("env", key, build, close=lambda pair: pair[0].close())
 
 
-def search_slot(env: Any, expert: Any, task: Any, request: GenerateRequest, slot: Slot) -> dict[str, Any]:
-    """Run attempts until one succeeds; the record of the kept (or last) attempt."""
-    from libero_data.numerics import machine_fingerprint
-    from libero_data.provenance import expert_code
-
-    stored = task.init_states() if task.init_states_path is not None else None
-    code = expert_code()
-    machine = machine_fingerprint()
-    failures: list[str] = []
-    for attempt in range(request.max_attempts):
-        reset_seed, expert_seed = episode_seeds(
-            request.seed, demo_key(task.suite, task.name, slot.k), attempt
-        )
-        index = request.stored_start(slot.k, 0 if stored is None else len(stored))
-        if index is not None and stored is not None:
-            init_index, init = index, stored[index]
-        else:
-            init_index, init = -1, None  # LIBERO's own placement sampler, from reset_seed
-        episode = expert.run(init, reset_seed=reset_seed, seed=expert_seed)
-        if episode.success:
-            return {
-                "success": True,
-                "attempts": attempt + 1,
-                "failures": failures,
-                "init_index": init_index,
-                "reset_seed": reset_seed,
-                "expert_seed": expert_seed,
-                "actions": episode.actions,
-                "states": episode.states,
-                "final_state": episode.final_state,
-                "plan": episode.plan,
-                "expert_code": code,
-                "machine": machine,
-            }
-        failures.append(episode.failure or "unknown")
-    return {
-        "success": False,
-        "attempts": request.max_attempts,
-        "failures": failures,
-        "expert_code": code,
-        "machine": machine,
-    }
-
-
-def episode_info(task: Any, slot: Slot, record: dict[str, Any], gl: dict[str, str]) -> dict[str, Any]:
+def episode_info(task: Any, slot: Slot, record: EpisodeRecord, gl: dict[str, str]) -> dict[str, Any]:
     """What a kept episode's ``episode.json`` says about it, beside its frames."""
+    states, _actions = record.trajectory()
     return {
         "slot": slot.key,
         "suite": task.suite,
         "task_index": task.index,
         "task_name": task.name,
         "language": task.language,
-        "init_index": int(record["init_index"]),
-        "reset_seed": int(record["reset_seed"]),
-        "expert_seed": int(record["expert_seed"]),
-        "attempt": int(record["attempts"]) - 1,
-        "sim_state_dim": int(record["states"].shape[1]),
-        "plan": list(record["plan"]),
-        # The code that searched the episode (a run resumed after an update of the expert or
+        "init_index": int(record.init_index),
+        "reset_seed": int(record.reset_seed),
+        "expert_seed": int(record.expert_seed),
+        "attempt": int(record.attempts) - 1,
+        "sim_state_dim": int(states.shape[1]),
+        "plan": list(record.plan),
+        # The code that made the episode (a run resumed after an update of the expert or
         # simulator keeps the episodes found before it).
-        "expert_code": record.get("expert_code", "unknown"),
-        # The numeric path that searched it (what a replay must match bit for bit) and the
+        "expert_code": record.code,
+        # The numeric path that made it (what a replay must match bit for bit) and the
         # OpenGL renderer that drew its images.
-        "machine": record.get("machine") or UNKNOWN_MACHINE,
+        "machine": record.machine or UNKNOWN_MACHINE,
         "gl": gl,
         "success": True,
-        # Imported demonstrations (libero-data import): where each came from, its checks, and
-        # where its fixtures stood (a replay places them so before restoring its states).
-        **({"fixtures": record["fixtures"]} if "fixtures" in record else {}),
-        **record.get("imported", {}),
+        # Where its fixtures stood (a replay places them so before restoring its states), and
+        # what its source tells of it (an import: the file, its checks).
+        **({"fixtures": record.fixtures} if record.fixtures is not None else {}),
+        **record.details,
     }
 
 
-def _final_state(env: Any, record: dict[str, Any]) -> np.ndarray:
+def _final_state(env: Any, record: EpisodeRecord) -> np.ndarray:
     """The state after an episode's last action: searched episodes keep it; an episode taken
     from a dataset (which stores each frame's state before its action) steps it again."""
-    if "final_state" in record:
-        return np.asarray(record["final_state"])
-    env.set_state(record["states"][-1])
-    env.advance(record["actions"][-1])
+    if record.final_state is not None:
+        return record.final_state
+    states, actions = record.trajectory()
+    env.set_state(states[-1])
+    env.advance(actions[-1])
     return np.asarray(env.get_state())
 
 
@@ -191,12 +150,13 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
 
     request = job.request
     task = get_suite(request.suite).task(job.task_index)
+    source = source_of(request)
     for key, data in job.records:
         if not (path := ctx.root / search_path(key)).is_file():
             write_bytes(path, data)
     done: list[EpisodeDone] = []
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shard-writer")
-    pending: tuple[Slot, dict[str, Any], Future[Path] | None] | None = None
+    pending: tuple[Slot, EpisodeRecord, Future[Path] | None] | None = None
 
     def settle() -> None:
         """Wait for the previous episode's shard, then report that episode."""
@@ -210,7 +170,7 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             release_free_memory()  # what the episode's encoders and buffers freed
             ctx.ship(shard_path(slot.key))
         ctx.ship(search_path(slot.key))  # last: its presence marks the slot as done
-        event = EpisodeDone(slot.key, slot.k, bool(record["success"]), int(record["attempts"]))
+        event = EpisodeDone(slot.key, slot.k, record.success, record.attempts)
         done.append(event)
         ctx.report(event)
 
@@ -219,29 +179,26 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             slot = Slot(job.position, job.task_index, k)
             search, shard = ctx.root / search_path(slot.key), ctx.root / shard_path(slot.key)
             if search.is_file():
-                record = load_record(search)
-            elif request.imported or request.source:
-                raise DatasetError(
-                    f"episode {slot.key}: its record (written from the source before rendering) is missing; "
-                    "run the command again"
-                )
+                record = EpisodeRecord.load(search)
             else:
-                env, expert = expert_env(ctx.cache, task, *_env_settings(request))
-                record = search_slot(env, expert, task, request, slot)
-                save_record(search, record)
+                made = source.search(ctx.cache, task, request, slot)
+                if made is None:
+                    raise DatasetError(
+                        f"episode {slot.key}: its record (written from the source before rendering) is missing; "
+                        "run the command again"
+                    )
+                record = made
+                record.save(search)
             finishing = None
-            if record["success"] and not shard.is_dir():
+            if record.success and not shard.is_dir():
                 env, _expert = expert_env(ctx.cache, task, *_env_settings(request))
-                env.reset(seed=int(record["reset_seed"]), render=False)  # the episode's fixture placement
-                if "fixtures" in record:  # imported: where its fixtures stood
-                    from libero_data.hdf5.fixtures import place_fixtures
-
-                    place_fixtures(env, record["fixtures"])
+                source.set_scene(env, record)
+                states, actions = record.trajectory()
                 finish = render_shard(
                     shard,
                     env=env,
-                    states=record["states"],
-                    actions=record["actions"],
+                    states=states,
+                    actions=actions,
                     final_state=_final_state(env, record),
                     task=task.name,
                     instruction=task.language,

@@ -1,7 +1,8 @@
 """``libero-data import``: LIBERO's HDF5 demonstrations (human) as a libero-data dataset.
 
 Each file is one task: found in our registry from its BDDL. Each demonstration becomes the
-search record of one slot (as ``rerender`` does with a dataset's episodes), after its checks:
+record of one slot (:func:`~libero_data.pipeline.sources.libero_hdf5.demo_record`; that source
+also says what the card says of them), written here before ``generate`` runs, after its checks:
 its fixtures placed from the model XML it stores, its states stepped one action at a time under
 our simulator (the largest deviation must stay within ``tolerance``), the stored init state it
 began nearest to, and optionally its no-op frames dropped. ``generate`` then renders each
@@ -13,21 +14,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from libero_data.errors import DatasetError, InputError
 from libero_data.pipeline.episodes import search_path
 from libero_data.pipeline.generate import Progress, check_output, generate
-from libero_data.pipeline.request import GenerateRequest, Slot, slots_of
-from libero_data.runtime.files import save_record
+from libero_data.pipeline.request import GenerateRequest, slots_of
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder
+
+if TYPE_CHECKING:
+    from libero_data.hdf5.reader import LiberoFile
 
 #: Largest one-step deviation (m or rad) of a demonstration's replay that an import accepts.
 DEFAULT_TOLERANCE = 0.01
-#: The demonstrator an imported episode names.
-HUMAN = "human (LIBERO's teleoperated demonstrations)"
 
 
 def plan_import(
@@ -40,7 +39,7 @@ def plan_import(
     render_quality: str = "full",
     tolerance: float = DEFAULT_TOLERANCE,
     drop_noops: bool = False,
-) -> tuple[GenerateRequest, dict[int, Any]]:
+) -> tuple[GenerateRequest, dict[int, LiberoFile]]:
     """The request an import of ``paths`` (files or folders) into ``out`` makes, and each
     task's file. Files of LIBERO's tasks import as tasks of their suite; files whose BDDL is none
     of them import as tasks of their own, a suite folder in ``out`` (:func:`write_own_suite`)."""
@@ -58,7 +57,7 @@ def plan_import(
             f"{odd.path} holds a task of its own (its BDDL is none of LIBERO's 130 tasks) while {known[0][0].path} "
             f"holds {known[0][1].id}; import the files of your own tasks on their own"
         )
-    by_task: dict[int, Any] = {}
+    by_task: dict[int, LiberoFile] = {}
     if not known:
         _own_task_names(files)  # checks the BDDL texts and names
         suite = str(Path(out).resolve())
@@ -96,7 +95,7 @@ def plan_import(
     return request, by_task
 
 
-def _own_task_names(files: list[Any]) -> list[str]:
+def _own_task_names(files: list[LiberoFile]) -> list[str]:
     """The task names of files imported as tasks of their own (from LIBERO's BDDL file name),
     their embedded BDDL checked."""
     from libero_data.bddl import parse
@@ -114,7 +113,7 @@ def _own_task_names(files: list[Any]) -> list[str]:
     return names
 
 
-def write_own_suite(out: Path, files: list[Any]) -> None:
+def write_own_suite(out: Path, files: list[LiberoFile]) -> None:
     """The suite folder of files imported as tasks of their own: ``out/suite.json`` and each
     file's embedded BDDL in ``out/tasks/`` (as ``generate --procedural`` writes a suite)."""
     import json
@@ -134,12 +133,13 @@ def write_own_suite(out: Path, files: list[Any]) -> None:
 
 def import_records(
     request: GenerateRequest,
-    by_task: dict[int, Any],
+    by_task: dict[int, LiberoFile],
     folder: Path,
     *,
     on_step: Callable[[str], None] | None = None,
 ) -> None:
     """Write the search record of every slot not written yet (one demonstration each)."""
+    from libero_data.pipeline.sources.libero_hdf5 import demo_record
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.tasks import get_suite
 
@@ -155,76 +155,7 @@ def import_records(
             for slot in todo:
                 if on_step:
                     on_step(f"checking {task.id} demonstration {slot.k + 1}/{len(source.demo_keys)}")
-                record = demo_record(env, task.id, request, source, slot, stored)
-                save_record(folder / search_path(slot.key), record)
-
-
-def demo_record(
-    env: Any, task_id: str, request: GenerateRequest, source: Any, slot: Slot, stored: Any
-) -> dict[str, Any]:
-    """One demonstration's search record: its states and actions, checked, with where it came from."""
-    from libero_data.hdf5.checks import START_MATCH, nearest_init, noop_frames, step_replay
-    from libero_data.hdf5.fixtures import fixture_poses, place_fixtures
-    from libero_data.hdf5.reader import DROPPED_AT_START
-
-    name = Path(source.path).name
-    if slot.k >= len(source.demo_keys):
-        return _not_kept(f"{name} holds {len(source.demo_keys)} demonstrations, not {slot.k + 1}")
-    key = source.demo_keys[slot.k]
-    demo = source.demo(key)
-    where = f"{source.path}, {key}"
-    if demo.states.shape[1] != env.state_dim:
-        raise DatasetError(
-            f"{where}: states are {demo.states.shape[1]} wide but {task_id}'s scene here has {env.state_dim}: "
-            "not the same scene"
-        )
-    fixtures = fixture_poses(demo.model_xml, env, where)
-    env.reset(seed=0, render=False)
-    place_fixtures(env, fixtures)
-    replay = step_replay(env, demo.states, demo.actions)
-    if replay.worst > request.import_tolerance:
-        return _not_kept(
-            f"{key}: stepping its stored states deviates by up to {replay.worst:.2e} (joint and object positions, "
-            f"m or rad), more than the tolerance of {request.import_tolerance:g}"
-        )
-    nearest, distance = (
-        (-1, float("nan")) if stored is None else nearest_init(env, demo.states[0], stored, DROPPED_AT_START)
-    )
-    keep = ~noop_frames(demo.actions) if request.drop_noops else np.ones(len(demo.actions), dtype=bool)
-    keep[-1] = True  # the last frame carries the final state
-    if keep.sum() < 2:
-        return _not_kept(f"{key}: fewer than 2 frames are left once its no-op frames are dropped")
-    return {
-        "success": True,
-        "attempts": 1,
-        "failures": [],
-        "init_index": nearest if distance <= START_MATCH else -1,
-        "reset_seed": 0,
-        "expert_seed": -1,
-        "actions": demo.actions[keep],
-        "states": demo.states[keep],
-        "final_state": replay.final_state,
-        "plan": [],
-        "expert_code": "human",
-        "machine": {"numeric_key": "unknown"},
-        "fixtures": fixtures,
-        "imported": {
-            "demonstrator": HUMAN,
-            "source_file": name,
-            "demo_key": key,
-            "frames_in_file": len(demo.actions),
-            "noops_dropped": int((~keep).sum()),
-            "noop_frames": [int(i) for i in np.flatnonzero(~keep)],
-            "init_nearest": nearest,
-            "init_distance": None if np.isnan(distance) else round(distance, 5),
-            "replay_worst": float(f"{replay.worst:.3e}"),
-            "replay_mean": float(f"{replay.mean:.3e}"),
-        },
-    }
-
-
-def _not_kept(reason: str) -> dict[str, Any]:
-    return {"success": False, "attempts": 1, "failures": [reason], "expert_code": "human"}
+                demo_record(env, task.id, request, source, slot, stored).save(folder / search_path(slot.key))
 
 
 def import_hdf5(
@@ -273,7 +204,7 @@ def import_hdf5(
 
 def run_import(
     request: GenerateRequest,
-    by_task: dict[int, Any],
+    by_task: dict[int, LiberoFile],
     out: Path,
     *,
     workers: int = 1,

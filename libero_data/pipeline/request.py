@@ -56,8 +56,9 @@ class GenerateRequest(Config):
     source: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
     render_quality: str = "full"  # libero_data.sim.env.RENDER_QUALITIES
     arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on sampler starts (libero_data.sim.arm)
-    # Imported from LIBERO's HDF5 files (libero-data import): the files, one per task in
-    # ``tasks`` order; the largest one-step replay deviation kept; no-op frames dropped.
+    # Imported demonstrations (libero-data import), read by the demonstration source that claims
+    # these files (libero_data.pipeline.sources): the files, one per task in ``tasks`` order;
+    # the largest one-step replay deviation kept; no-op frames dropped.
     imported: tuple[str, ...] = ()
     import_tolerance: float = 0.0
     drop_noops: bool = False

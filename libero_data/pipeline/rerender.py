@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -20,8 +19,9 @@ from libero_data.pipeline.episodes import search_path
 from libero_data.pipeline.generate import Progress, check_output, generate
 from libero_data.pipeline.request import GenerateRequest, Slot, slots_of
 from libero_data.pipeline.resimulate import recorded_machines, stored_episode
+from libero_data.pipeline.sources import EpisodeRecord
 from libero_data.pipeline.validate import episode_table
-from libero_data.runtime.files import read_json, read_json_lines, save_record
+from libero_data.runtime.files import read_json, read_json_lines
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder
 
 #: What a slot the source gave up on says in the new dataset.
@@ -53,7 +53,7 @@ def rerender_request(
     )
 
 
-def _records(source: Path, request: GenerateRequest) -> dict[str, dict[str, Any]]:
+def _records(source: Path, request: GenerateRequest) -> dict[str, EpisodeRecord]:
     """The search record of every slot, from the source's episodes (slot by slot)."""
     info = read_json(source / "meta" / "info.json")
     rows = read_json_lines(source / "meta" / "libero_episodes.jsonl")
@@ -61,7 +61,7 @@ def _records(source: Path, request: GenerateRequest) -> dict[str, dict[str, Any]
     episodes = {int(e["episode_index"]): e for e in episode_table(source)}
     slots = slots_of(request)
     taken: dict[int, int] = {}  # position -> slots used, for datasets that did not record their slots
-    records: dict[str, dict[str, Any]] = {}
+    records: dict[str, EpisodeRecord] = {}
     for row in rows:
         position = request.tasks.index(int(row["task_index"]))
         key = row.get("slot") or Slot(position, int(row["task_index"]), taken.get(position, 0)).key
@@ -70,23 +70,22 @@ def _records(source: Path, request: GenerateRequest) -> dict[str, dict[str, Any]
         machine = machines.get(
             str(row.get("numeric_key")), {"numeric_key": row.get("numeric_key", "unknown")}
         )
-        records[key] = {
-            "success": True,
-            "attempts": int(row.get("attempt", 0)) + 1,
-            "failures": [],
-            "init_index": int(row["init_index"]),
-            "reset_seed": int(row["reset_seed"]),
-            "expert_seed": int(row["expert_seed"]),
-            "actions": np.asarray(actions, dtype=np.float64),
-            "states": np.asarray(states, dtype=np.float64),
-            "plan": list(row.get("plan", [])),
-            "expert_code": row.get("expert_code", "unknown"),
-            "machine": machine,
-        }
+        records[key] = EpisodeRecord(
+            success=True,
+            attempts=int(row.get("attempt", 0)) + 1,
+            code=row.get("expert_code", "unknown"),
+            machine=machine,
+            init_index=int(row["init_index"]),
+            reset_seed=int(row["reset_seed"]),
+            expert_seed=int(row["expert_seed"]),
+            actions=np.asarray(actions, dtype=np.float64),
+            states=np.asarray(states, dtype=np.float64),
+            plan=tuple(row.get("plan", [])),
+        )
     for slot in slots:
         records.setdefault(
             slot.key,
-            {"success": False, "attempts": request.max_attempts, "failures": [GIVEN_UP], "expert_code": ""},
+            EpisodeRecord(success=False, attempts=request.max_attempts, failures=(GIVEN_UP,), code=""),
         )
     return records
 
@@ -117,7 +116,7 @@ def rerender(
             for key, record in _records(source, request).items():
                 path = folder.root / search_path(key)
                 if not path.is_file():
-                    save_record(path, record)
+                    record.save(path)
     return generate(
         request, out, workers=workers, on_progress=on_progress, command=command, keep_work=keep_work
     )

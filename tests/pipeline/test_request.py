@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from libero_data.errors import InputError, SettingsChanged
-from libero_data.pipeline.describe import start_note
 from libero_data.pipeline.request import GenerateRequest
+from libero_data.pipeline.sources.scripted import start_note
 from libero_data.runtime.folder import WorkFolder
 from libero_data.sim.arm import ARM_INIT_NOISE
 

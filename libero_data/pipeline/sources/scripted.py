@@ -1,0 +1,138 @@
+"""The scripted expert as a demonstration source: each slot's episode is searched in a worker
+(attempts with new seeds until one succeeds), and the card says where the episodes started."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from libero_data.pipeline.episodes import expert_env
+from libero_data.pipeline.request import STORED_INITS
+from libero_data.pipeline.sources.base import CardPart, DemoSource, EpisodeRecord, register_source
+from libero_data.seeding import demo_key, episode_seeds
+from libero_data.sim.arm import ARM_INIT_NOISE
+
+if TYPE_CHECKING:
+    from libero_data.experts.expert import Expert
+    from libero_data.pipeline.request import GenerateRequest, Slot
+    from libero_data.runtime.jobs import WorkerCache
+    from libero_data.sim import LiberoEnv
+    from libero_data.tasks.suites import Task
+
+
+class ScriptedExpert(DemoSource):
+    """The scripted expert (:mod:`libero_data.experts`): makes any request's episodes, so it is
+    asked last."""
+
+    order = 100
+
+    def claims(self, request: GenerateRequest) -> bool:
+        return True
+
+    def search(self, cache: WorkerCache, task: Task, request: GenerateRequest, slot: Slot) -> EpisodeRecord:
+        env, expert = expert_env(
+            cache, task, request.image_size, tuple(request.cameras), request.render_quality, request.arm_noise
+        )
+        return search_slot(env, expert, task, request, slot)
+
+    def card(self, request: GenerateRequest, suite: str, infos: list[dict[str, object]]) -> CardPart:
+        return CardPart(
+            summary=f"Scripted demonstrations of the LIBERO suite `{suite}`, made with libero-data in LeRobot v3 format.",
+            start_note=start_note(request.starts, request.episodes_per_task, request.arm_noise),
+        )
+
+
+register_source(ScriptedExpert("scripted"))
+
+
+def search_slot(
+    env: LiberoEnv, expert: Expert, task: Task, request: GenerateRequest, slot: Slot
+) -> EpisodeRecord:
+    """Run attempts until one succeeds; the record of the kept (or last) attempt."""
+    from libero_data.numerics import machine_fingerprint
+    from libero_data.provenance import expert_code
+
+    stored = task.init_states() if task.init_states_path is not None else None
+    code = expert_code()
+    machine = machine_fingerprint()
+    failures: list[str] = []
+    for attempt in range(request.max_attempts):
+        reset_seed, expert_seed = episode_seeds(
+            request.seed, demo_key(task.suite, task.name, slot.k), attempt
+        )
+        index = request.stored_start(slot.k, 0 if stored is None else len(stored))
+        if index is not None and stored is not None:
+            init_index, init = index, stored[index]
+        else:
+            init_index, init = -1, None  # LIBERO's own placement sampler, from reset_seed
+        episode = expert.run(init, reset_seed=reset_seed, seed=expert_seed)
+        if episode.success:
+            return EpisodeRecord(
+                success=True,
+                attempts=attempt + 1,
+                failures=tuple(failures),
+                code=code,
+                machine=machine,
+                init_index=init_index,
+                reset_seed=reset_seed,
+                expert_seed=expert_seed,
+                actions=episode.actions,
+                states=episode.states,
+                final_state=episode.final_state,
+                plan=tuple(episode.plan),
+            )
+        failures.append(episode.failure or "unknown")
+    return EpisodeRecord(
+        success=False, attempts=request.max_attempts, failures=tuple(failures), code=code, machine=machine
+    )
+
+
+#: The card's settings row for each kind of start.
+START_WORDS = {
+    "sampler": "LIBERO's placement sampler, demonstration seeds (no stored init state)",
+    "stored": "LIBERO's stored init states (the paper's evaluation starts), then the sampler",
+}
+
+
+def start_words(starts: str, arm_noise: float) -> str:
+    """The card's settings row for the starts."""
+    arm = f"arm joints + N(0, {arm_noise:g} rad)" if arm_noise else "the arm at LIBERO's initial pose"
+    return f"{START_WORDS[starts]}; sampler starts: {arm}"
+
+
+def arm_words(arm_noise: float) -> str:
+    """How the card says a sampler start holds the arm."""
+    if arm_noise == 0:
+        return (
+            "with the arm at LIBERO's initial pose (no noise: the stored init states have "
+            f"{ARM_INIT_NOISE:g} rad per joint)"
+        )
+    return (
+        f"with the arm's seven joints offset by Gaussian noise of {arm_noise:g} rad drawn from the same seed "
+        f"(LIBERO's stored init states have {ARM_INIT_NOISE:g} rad; LIBERO's environment itself starts every reset "
+        "from one arm pose)"
+    )
+
+
+def start_note(starts: str, episodes_per_task: int, arm_noise: float) -> str:
+    """Where the card says the episodes started."""
+    if starts == "sampler":
+        return (
+            "Every episode starts from a placement drawn by LIBERO's own sampler for its task, seeded from the "
+            "demonstration seed stream (`reset_seed` in `meta/libero_episodes.jsonl`, `init_index` -1), "
+            f"{arm_words(arm_noise)}. No episode "
+            "starts from LIBERO's 50 stored init states, which the paper's evaluation uses, and libero-bench draws "
+            "its held-out evaluation placements from another seed stream: a policy trained on this dataset is "
+            "evaluated on starts it never saw."
+        )
+    stored = min(episodes_per_task, STORED_INITS)
+    note = (
+        f"The first {stored} episodes of each task start from LIBERO's stored init states (episode k from init "
+        "state k), the states the paper's evaluation starts from: a policy evaluated on them has seen its starts "
+        "in training. "
+        + (
+            f"Further episodes start from placements drawn by LIBERO's own sampler for that task, seeded, {arm_words(arm_noise)}."
+            if episodes_per_task > STORED_INITS
+            else ""
+        )
+    )
+    return note.strip()
