@@ -4,6 +4,9 @@
 
     RUN/
       config.json         what the run is: data, tasks in order, preset, policy, algorithm, seed
+                          (paths relative to the run folder)
+      training_data.json  where each task's demonstrations started, the states' width: what
+                          evaluating the run needs from its data (runs.training_data)
       results.json        success tensor (curve, after), best epochs, losses, every rollout's outcome
       timings.jsonl       seconds per epoch / evaluation round (not part of the results)
       run.log             the library's log (written by the CLI)

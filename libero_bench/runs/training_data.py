@@ -42,6 +42,8 @@ class TrainingData:
     datasets: tuple[str, ...]
     sim_state_width: int
     starts: dict[str, tuple[frozenset[int], frozenset[int]]]
+    #: How the starts were found where not read from the datasets (a committed run's record).
+    note: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -52,6 +54,7 @@ class TrainingData:
                 name: {"stored_inits": sorted(stored), "reset_seeds": sorted(seeds)}
                 for name, (stored, seeds) in sorted(self.starts.items())
             },
+            **({"note": self.note} if self.note else {}),
         }
 
     @classmethod
@@ -66,7 +69,8 @@ class TrainingData:
                 )
                 for name, entry in data["tasks"].items()
             }
-            return cls(tuple(str(d) for d in data["datasets"]), int(data["sim_state_width"]), starts)
+            datasets = tuple(str(d) for d in data["datasets"])
+            return cls(datasets, int(data["sim_state_width"]), starts, str(data.get("note", "")))
         except (AttributeError, KeyError, TypeError, ValueError) as e:
             raise FileFormatError(f"{where} is not a run's training-data record ({e})") from None
 
