@@ -28,6 +28,7 @@ from libero_data.cli.common import (
     split_list,
     user_errors,
 )
+from libero_data.perturb.levels import KINDS  # the registry's kinds, for --help
 
 
 @user_errors
@@ -52,8 +53,7 @@ def robustness_cmd(
         list[str] | None,
         typer.Option(
             "--kinds",
-            help="Perturbation kinds: layout, distractors, swap, language, camera, robot_init, lighting, texture, "
-            "noise (default: all nine).",
+            help=f"Perturbation kinds: {', '.join(KINDS)} (default: all {len(KINDS)}).",
         ),
     ] = None,
     levels: Annotated[

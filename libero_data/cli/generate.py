@@ -25,6 +25,7 @@ from libero_data.cli.common import (
     split_list,
     user_errors,
 )
+from libero_data.perturb.levels import KINDS, SCENE_KINDS  # the registry's kinds, for --help
 
 Tasks = Annotated[
     list[str] | None,
@@ -74,8 +75,8 @@ Kinds = Annotated[
     list[str] | None,
     typer.Option(
         "--kinds",
-        help="With --variants-of: layout, distractors, swap, language, camera, robot_init, lighting, texture, "
-        "noise (default: the first four).",
+        help=f"With --variants-of: {', '.join(KINDS)} (default: the {len(SCENE_KINDS)} that rewrite the task, "
+        f"{', '.join(SCENE_KINDS)}).",
     ),
 ]
 Levels = Annotated[

@@ -13,23 +13,25 @@ from libero_data.perturb.kinds import SHARED, all_kinds, get_kind
 from libero_data.perturb.kinds.base import Kind
 from libero_data.perturb.levels import ENV_KINDS, KINDS, LEVELS, MAGNITUDES, SCENE_KINDS
 
-#: The order variants, defaults and drawn seeds have always used; a new kind goes last.
-ORDER = ("layout", "distractors", "swap", "language", "camera", "robot_init", "lighting", "texture", "noise")
+#: The kinds that existed when variants were first drawn, in their order: a drawn variant's seed
+#: follows its kind's place, so these keep theirs and a new kind goes after them.
+FIRST = ("layout", "distractors", "swap", "language", "camera", "robot_init", "lighting", "texture", "noise")
 
 
 def test_every_module_is_one_kind_in_the_published_order() -> None:
     modules = {m.name for m in pkgutil.iter_modules(kinds_package.__path__)} - set(SHARED)
     found = all_kinds()
     assert {k.name for k in found} == modules
-    assert KINDS == ORDER == tuple(k.name for k in found)
+    assert KINDS == tuple(k.name for k in found) and KINDS[: len(FIRST)] == FIRST
     assert [k.order for k in found] == list(range(len(found)))
-    assert ORDER[:4] == SCENE_KINDS and ORDER[4:] == ENV_KINDS
+    assert SCENE_KINDS == tuple(k.name for k in found if k.rewrites_task) == FIRST[:4]
+    assert ENV_KINDS == tuple(k.name for k in found if not k.rewrites_task)
     assert all(type(k).__module__ == f"libero_data.perturb.kinds.{k.name}" for k in found)
     with pytest.raises(UnknownNameError, match="unknown robustness kind 'fog'"):
         get_kind("fog")
 
 
-@pytest.mark.parametrize("name", ORDER)
+@pytest.mark.parametrize("name", [k.name for k in all_kinds()])
 def test_each_kind_is_complete(name: str) -> None:
     kind = get_kind(name)
     assert kind.summary and kind.magnitudes
@@ -46,3 +48,15 @@ def test_each_kind_is_complete(name: str) -> None:
         hooks = ("apply_scene", "start_robot", "observe")
         assert any(getattr(type(kind), h) is not getattr(Kind, h) for h in hooks)
         assert kind.keeps_layout
+
+
+def test_the_readme_and_the_docs_name_the_registrys_kinds() -> None:
+    from pathlib import Path
+
+    words = {9: "nine", 10: "ten", 11: "eleven", 12: "twelve"}
+    root = Path(__file__).resolve().parents[2]
+    readme = " ".join((root / "README.md").read_text().split())
+    assert f"along {words[len(KINDS)]} kinds ({', '.join(KINDS)})" in readme
+    docs = (root / "docs" / "procedural-and-robustness.md").read_text()
+    assert f"## Robustness variants: {words[len(KINDS)]} kinds, five levels" in docs
+    assert all(f"`{name}`" in docs for name in KINDS)

@@ -1,7 +1,7 @@
 """What every robustness kind is, and the registry that finds them.
 
 A kind is one module of :mod:`libero_data.perturb.kinds` holding one :class:`Kind` subclass,
-registered with ``@REGISTRY.register("name")``: its magnitudes at levels 1–5, how a level is
+registered with ``@register`` under its module's name: its magnitudes at levels 1–5, how a level is
 drawn (``sample`` for kinds the simulator applies, ``vary`` for kinds that rewrite the task's
 BDDL) and, for the former, how the simulator applies it (``apply_scene`` once the scene is built,
 ``start_robot`` after each reset, ``observe`` on each observation). ``keeps_layout`` says which
