@@ -22,10 +22,10 @@ def test_every_module_is_one_kind_in_the_published_order() -> None:
     modules = {m.name for m in pkgutil.iter_modules(kinds_package.__path__)} - set(SHARED)
     found = all_kinds()
     assert {k.name for k in found} == modules
-    assert KINDS == tuple(k.name for k in found) and KINDS[: len(FIRST)] == FIRST
+    assert tuple(k.name for k in found) == KINDS and KINDS[: len(FIRST)] == FIRST
     assert [k.order for k in found] == list(range(len(found)))
     assert SCENE_KINDS == tuple(k.name for k in found if k.rewrites_task) == FIRST[:4]
-    assert ENV_KINDS == tuple(k.name for k in found if not k.rewrites_task)
+    assert tuple(k.name for k in found if not k.rewrites_task) == ENV_KINDS
     assert all(type(k).__module__ == f"libero_data.perturb.kinds.{k.name}" for k in found)
     with pytest.raises(UnknownNameError, match="unknown robustness kind 'fog'"):
         get_kind("fog")
