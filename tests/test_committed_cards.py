@@ -59,3 +59,24 @@ def test_the_tables_and_cards_come_from_one_report() -> None:
     assert f"expert code: {code}" in (CARDS / "expert_report.md").read_text()
     for suite in TARGETS:
         assert f"expert code {code}" in (CARDS / f"{suite}.md").read_text(), suite
+
+
+def test_the_libero_pro_table_covers_its_16_suites_with_50_inits_by_the_same_expert() -> None:
+    from libero_data.tasks.suites import pro_suite_names
+
+    folder = CARDS / "libero_pro"
+    with (folder / "expert_report.csv").open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    families = [name for name in pro_suite_names() if "_temp_" not in name]
+    assert len(families) == 16
+    want = [(name, t.index) for name in families for t in get_suite(name).tasks]
+    assert sorted((r["suite"], int(r["index"])) for r in rows) == sorted(want)
+    assert {int(r["episodes"]) for r in rows} == {50}
+    lines = (folder / "expert_report.jsonl").read_text().splitlines()
+    measured = {row["ref"]: row["successes"] for row in map(json.loads, lines[1:])}
+    assert measured == {f"{r['suite']}/{r['index']}": int(r["successes"]) for r in rows}
+    # the expert of the 130 tasks' table, measured on the same numeric path
+    main = json.loads((CARDS / "expert_report.jsonl").read_text().splitlines()[0])["settings"]
+    settings = json.loads(lines[0])["settings"]
+    assert settings["expert"] == main["expert"] and settings["inits"] == main["inits"] == 50
+    assert f"expert code: {settings['expert']}" in (folder / "expert_report.md").read_text()
