@@ -40,6 +40,7 @@ import numpy as np
 
 from libero_bench.rollouts.loop import Execution
 from libero_bench.runs.folder import AFTER, LEARNING, PRUNED, STARTS, STORED, RunFolder, RunResults
+from libero_bench.runs.training_data import TRAINING_DATA, with_relative_paths, write_training_data
 from libero_bench.train.checkpoints import (
     load_checkpoint,
     load_epoch_state,
@@ -113,8 +114,6 @@ class Trainer:
         return self._results
 
     def _prepare_folder(self) -> RunResults:
-        from libero_bench.runs.training_data import TRAINING_DATA, with_relative_paths, write_training_data
-
         root = self.folder.root
         config = self.plan.config(self.options, root)
         if self.folder.config.is_file():
