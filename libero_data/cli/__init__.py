@@ -6,43 +6,25 @@ Bad input (an unknown task, malformed BDDL, a bad flag) prints one sentence and 
 
 from __future__ import annotations
 
-import typer
-
-from libero_data.cli import (
-    card,
-    dataset,
-    expert_report,
-    generate,
-    import_hdf5,
-    render_cache,
-    rerender,
-    scenes,
-    tasks,
-)
-
-app = typer.Typer(
-    name="libero-data",
-    help="LIBERO tasks, scenes and demonstration datasets (LeRobot v3 format).",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
-app.command("tasks")(tasks.tasks_cmd)
-app.command("show")(tasks.show_cmd)
-app.command("generate")(generate.generate_cmd)
-app.command("scenes")(scenes.scenes_cmd)
-app.command("contact-sheet")(scenes.contact_sheet_cmd)
-app.command("rerender")(rerender.rerender_cmd)
-app.command("import")(import_hdf5.import_cmd)
-app.command("render-cache")(render_cache.render_cache_cmd)
-app.command("validate")(dataset.validate_cmd)
-app.command("replay")(dataset.replay_cmd)
-app.command("expert-report")(expert_report.expert_report_cmd)
-app.command("card")(card.card_cmd)
+from typing import Any
 
 
 def main() -> None:
+    """``libero-data``: pin the numeric path, then load the commands and run the one asked for.
+
+    The commands are imported only now: several load NumPy, which must come after the pin
+    (:mod:`libero_data.numerics`)."""
     from libero_data.numerics import pin
 
-    pin()  # before anything loads NumPy: see libero_data.numerics
+    pin()  # before anything loads NumPy
+    from libero_data.cli.commands import app
+
     app()
+
+
+def __getattr__(name: str) -> Any:
+    if name == "app":  # ``from libero_data.cli import app`` (tests, embedding): the Typer application
+        from libero_data.cli.commands import app
+
+        return app
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -134,3 +134,29 @@ def test_orientation_error_is_robosuites_bit_for_bit() -> None:
         a = T.quat2mat(T.axisangle2quat(rng.uniform(-1, 1, 3)))
         b = T.quat2mat(T.axisangle2quat(rng.uniform(-1, 1, 3)))
         np.testing.assert_array_equal(_orientation_error(a, b), orientation_error(a, b))
+
+
+@pytest.mark.parametrize("tool", ["libero_data.cli", "libero_bench.cli"])
+def test_each_tool_pins_its_numeric_path_before_anything_loads_numpy(tool: str) -> None:
+    # The entry point imports the package and calls main(): nothing before the pin may load
+    # NumPy (a command module reading the kinds' registry for its --help once did, and the run
+    # it made took this machine's own kernel).
+    script = (
+        "import sys\n"
+        f"import {tool} as cli\n"
+        "assert 'numpy' not in sys.modules, 'importing the tool loaded NumPy'\n"
+        "sys.argv = ['tool', '--help']\n"
+        "try:\n    cli.main()\nexcept SystemExit:\n    pass\n"
+        "from libero_data.numerics import machine_fingerprint\n"
+        "print(machine_fingerprint()['numerics'])\n"
+    )
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", OPT_OUT)
+    }
+    done = subprocess.run(
+        [sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == "pinned"
