@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -89,8 +90,9 @@ def expert_report_cmd(
     for name, s in summarise(results).items():
         console().print(
             f"{name}: {s['rate']:.1%} of {int(s['episodes'])} (95% interval {s['low']:.1%}–{s['high']:.1%}; "
-            f"target {s['target']:.0%}: {verdict(s['rate'], s['high'], s['target'])}), "
-            f"lowest task {s['lowest_task_rate']:.0%}",
+            + ("" if math.isnan(s["target"]) else f"target {s['target']:.0%}: ")
+            + f"{verdict(s['rate'], s['high'], s['target'])}), "
+            + f"lowest task {s['lowest_task_rate']:.0%}",
             markup=False,
         )
     say(f"wrote {csv_path} and {md_path}")
