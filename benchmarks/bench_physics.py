@@ -85,6 +85,33 @@ def measure(task_ref: str, steps: int, reps: int, seed: int) -> dict[str, float]
     return {name: seconds / steps for name, seconds in rates.items()}
 
 
+def mujoco_step_ms(task_ref: str = "libero_object/0", steps: int = 200) -> float:
+    """Milliseconds of MuJoCo's own step (``mj_step1`` + ``mj_step2``) per control step of
+    ``task_ref`` (its 25 substeps, nothing else): this machine's speed at what the tests and the
+    expert spend their time on, printed beside the test suite's time (``tests/conftest.py``) so
+    that a suite's time on another machine can be set against it. About 3 s."""
+    import time
+
+    import mujoco
+
+    from libero_data.sim import EnvConfig, LiberoEnv
+    from libero_data.tasks import get_task
+
+    task = get_task(task_ref)
+    with LiberoEnv(task, EnvConfig(cameras=())) as env:
+        env.reset(task.init_states()[0], seed=0, settle=20, render=False)
+        model, data = env.sim.model._model, env.sim.data._data
+        substeps = env._stepper.substeps
+        best = float("inf")
+        for _ in range(3):  # the fastest of three rounds: what the machine can do, not its load
+            started = time.perf_counter()
+            for _ in range(steps * substeps):
+                mujoco.mj_step1(model, data)
+                mujoco.mj_step2(model, data)
+            best = min(best, (time.perf_counter() - started) / steps)
+    return best * 1e3
+
+
 def table(results: dict[str, dict[str, float]], steps: int, reps: int) -> str:
     lines = [
         f"Per control step (20 Hz, 25 substeps), no cameras; medians of {reps} rounds × {steps} steps "

@@ -21,6 +21,16 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 from tests.tiny_data import make_procedural_suite, make_tiny_dataset  # noqa: E402  (loads NumPy)
 
 
+def pytest_report_header(config: pytest.Config) -> str | None:
+    """This machine's MuJoCo step time, so the suite's time can be compared across machines
+    (benchmarks/RESULTS.md, Where the targets stand: the test suite)."""
+    if os.environ.get("PYTEST_XDIST_WORKER") or config.getoption("collectonly"):
+        return None
+    from benchmarks.bench_physics import mujoco_step_ms
+
+    return f"MuJoCo step: {mujoco_step_ms():.2f} ms per control step (libero_object/0, 25 substeps)"
+
+
 def _built_once(tmp_path_factory: pytest.TempPathFactory, name: str, make: Callable[[Path], Path]) -> Path:
     """``make(folder)`` run once per test run, even with pytest-xdist's worker processes.
 

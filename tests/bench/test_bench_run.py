@@ -116,7 +116,9 @@ def test_run_folder_and_results(bench_run: Path) -> None:
     assert len(heldout) == 5 and all(r["init_index"] == -1 for r in heldout)
     from libero_data.seeding import heldout_starts
 
-    rows = (Path(config["data"]) / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    rows = (
+        (bench_run / config["data"] / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    )  # named from the run
     demo_seeds = {json.loads(line)["reset_seed"] for line in rows}
     for r in heldout:
         assert r["env_seed"] == heldout_starts(r["task"], 1, avoid=demo_seeds)[0]

@@ -197,7 +197,7 @@ CASES: dict[str, Case] = {
     "run: results.json not JSON (resume)": Case(
         "run",
         _write("results.json", "]"),
-        lambda r, s: [*RESUME, "--data", json.loads((r / "config.json").read_text())["data"], "--out", r],
+        lambda r, s: [*RESUME, "--data", r / json.loads((r / "config.json").read_text())["data"], "--out", r],
         "not valid JSON",
     ),
     "run: checkpoint missing": Case("run", _remove("checkpoints/task_001.safetensors"), _sweep, "is missing"),

@@ -136,9 +136,9 @@ def test_a_mixed_run_records_its_mix(tiny_dataset: Path, variants: Path, tmp_pat
         Trainer(_plan(tiny_dataset, variants, tasks=("7",)), out, RunOptions()).run()
     config = read_json(out / "config.json")
     assert config["mix"]["weight"] == 0.25
-    assert config["mix"]["datasets"][0]["data"] == str(variants.resolve())
+    assert (out / config["mix"]["datasets"][0]["data"]).resolve() == variants.resolve()  # named from the run
     assert config["mix"]["tasks"][STOVE] == {"variants": [f"{STOVE}__camera_l3"], "episodes": [[0, 1]]}
-    assert mixed_seeds(config) == {STOVE: {heldout_seed(STOVE, 0)}}
+    assert mixed_seeds(config, out) == {STOVE: {heldout_seed(STOVE, 0)}}
     assert config["evaluation"]["training_starts"][STOVE]["demos_from_sampler"] == 2
     # resuming with another weight is refused, with the same one it is the same run
     from libero_data.errors import SettingsChanged
