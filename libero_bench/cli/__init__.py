@@ -2,30 +2,20 @@
 
 One module per command; each builds a typed request from its options and calls the library.
 Bad input (a missing folder, an unknown task, a bad option) prints one sentence and exits with
-2. Heavy modules (torch, lerobot, the simulator) are imported inside the commands.
+2. Heavy modules (torch, lerobot, the simulator) are imported inside the commands, and the
+commands themselves only once the numeric path is pinned (:func:`libero_data.cli.run_tool`).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from libero_data.cli import lazy_app, run_tool
+
+COMMANDS = "libero_bench.cli.commands"
 
 
 def main() -> None:
-    """``libero-bench``: pin the numeric path, then load the commands and run the one asked for.
-
-    The commands are imported only now: several load NumPy, which must come after the pin
-    (:mod:`libero_data.numerics`)."""
-    from libero_data.numerics import pin
-
-    pin()  # before anything loads NumPy
-    from libero_bench.cli.commands import app
-
-    app()
+    """``libero-bench``."""
+    run_tool(COMMANDS)
 
 
-def __getattr__(name: str) -> Any:
-    if name == "app":  # ``from libero_bench.cli import app`` (tests, embedding): the Typer application
-        from libero_bench.cli.commands import app
-
-        return app
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_app(COMMANDS)

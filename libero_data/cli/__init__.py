@@ -2,29 +2,43 @@
 
 One module per command; each builds a typed request from its options and calls the library.
 Bad input (an unknown task, malformed BDDL, a bad flag) prints one sentence and exits with 2.
+The commands are loaded only when asked for (:func:`main`, or ``app``): several load NumPy,
+which must come after the numeric path is pinned (:mod:`libero_data.numerics`).
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable
 from typing import Any
 
+COMMANDS = "libero_data.cli.commands"
 
-def main() -> None:
-    """``libero-data``: pin the numeric path, then load the commands and run the one asked for.
 
-    The commands are imported only now: several load NumPy, which must come after the pin
-    (:mod:`libero_data.numerics`)."""
+def run_tool(commands: str) -> None:
+    """Pin the numeric path, then load the Typer ``app`` of the module ``commands`` and run it
+    (the entry point of ``libero-data`` and ``libero-bench``)."""
     from libero_data.numerics import pin
 
     pin()  # before anything loads NumPy
-    from libero_data.cli.commands import app
-
-    app()
+    importlib.import_module(commands).app()
 
 
-def __getattr__(name: str) -> Any:
-    if name == "app":  # ``from libero_data.cli import app`` (tests, embedding): the Typer application
-        from libero_data.cli.commands import app
+def lazy_app(commands: str) -> Callable[[str], Any]:
+    """A module ``__getattr__`` that gives ``app`` (``from <tool>.cli import app``: tests,
+    embedding) from the module ``commands``, loaded when first asked for."""
 
-        return app
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    def __getattr__(name: str) -> Any:
+        if name == "app":
+            return importlib.import_module(commands).app
+        raise AttributeError(f"module {commands.rpartition('.')[0]!r} has no attribute {name!r}")
+
+    return __getattr__
+
+
+def main() -> None:
+    """``libero-data``."""
+    run_tool(COMMANDS)
+
+
+__getattr__ = lazy_app(COMMANDS)
