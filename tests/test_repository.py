@@ -108,3 +108,24 @@ def test_committed_results_name_paths_relative_to_their_folder() -> None:
     assert len(named) >= 45  # 12 sweeps, 11 runs named by reports, 2 initial checkpoints, 21 evaluations
     for path, name in named:
         assert (path.parent / name).exists(), f"{path.relative_to(ROOT)} names {name}, which is not there"
+
+
+def test_no_tracked_file_is_the_environment_or_a_link_out_of_the_repository() -> None:
+    """A worktree's `.venv` link once slipped into a commit, and a checkout then replaced the
+    environment it pointed to with the link itself."""
+    import shutil
+    import subprocess
+
+    import pytest
+
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout (an unpacked archive): nothing is tracked")
+    tracked = subprocess.run(
+        ["git", "ls-files", "-s"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.splitlines()
+    links = [line.split("\t", 1)[1] for line in tracked if line.startswith("120000")]
+    paths = [line.split("\t", 1)[1] for line in tracked]
+    assert not [p for p in paths if p == ".venv" or p.startswith(".venv/")]
+    for link in links:
+        target = (ROOT / link).resolve()
+        assert target.is_relative_to(ROOT), f"{link} links out of the repository, to {target}"
