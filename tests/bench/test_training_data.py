@@ -46,7 +46,7 @@ def test_a_run_copied_without_its_data_is_evaluated_from_its_record(
     config = json.loads((copy / "config.json").read_text())
     assert not (copy / config["data"]).exists()  # its dataset did not come along
     dataset, starts = policy_source(str(copy)).training_starts()
-    assert dataset == config["data"]
+    assert dataset == str(copy / config["data"])  # where the run says its data was
     seeds = _demo_seeds(tiny_dataset)
     assert {name: found[1] for name, found in starts.items()} == seeds
     for name, avoid in seeds.items():  # held-out starts skip every seed a demonstration began from

@@ -59,11 +59,12 @@ def run_source(policy: str, options: SourceOptions) -> PolicySource:
 def run_training_starts(folder: Path, config: dict[str, Any]) -> TrainingStarts:
     """Where a run's demonstrations started, per task (its dataset's and those of any dataset
     mixed in): the run's own record, or its datasets' for a run that predates it."""
-    from libero_bench.runs.training_data import run_training_data
+    from libero_bench.runs.training_data import resolve, run_training_data
 
     data = run_training_data(folder, config)
     found = {name: (set(stored), set(seeds)) for name, (stored, seeds) in data.starts.items()}
-    return data.datasets[0], found
+    # the dataset as a path, like the other kinds' (the record names it from the run folder)
+    return str(resolve(folder, data.datasets[0])), found
 
 
 register_kind(PolicyKind(RUN, 10, is_run, run_source))
