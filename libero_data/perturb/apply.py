@@ -1,12 +1,14 @@
 """Applying a :class:`~libero_data.perturb.spec.Perturbation` to a built LIBERO scene.
 
-``LiberoEnv`` calls these; each takes the robosuite environment it wraps and hands the work to
-the perturbation's kind (:mod:`libero_data.perturb.kinds`):
+``LiberoEnv`` calls these three for every perturbation, whatever its kind; each hands the work
+to the kind's hook of the same name (:mod:`libero_data.perturb.kinds`), a no-op where the kind
+does not define it. The simulator never names a kind.
 
-- :func:`apply_scene` once, after the scene is built (``camera``, ``lighting``, ``texture``:
-  only what cameras see changes, physics is untouched);
-- :func:`start_robot` after each reset (``robot_init``);
-- :func:`add_noise` to each observation (``noise``; the state stays clean).
+- :func:`apply_scene` once, after the scene is built (e.g. ``camera``, ``lighting``,
+  ``texture``: only what cameras see changes, physics is untouched);
+- :func:`start_robot` after each reset (e.g. ``robot_init``): says whether it moved anything, so
+  the simulator makes the state canonical again only then;
+- :func:`observe` on each observation (e.g. ``noise``; the state stays clean).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 from libero_data.perturb.kinds import get_kind
+from libero_data.perturb.kinds.base import Kind
 from libero_data.perturb.spec import Perturbation
 
 
@@ -22,11 +25,15 @@ def apply_scene(raw: Any, p: Perturbation) -> None:
     get_kind(p.kind).apply_scene(raw, p)
 
 
-def start_robot(raw: Any, p: Perturbation, reset_seed: int) -> None:
-    """Move the arm's start for this reset as ``p`` says."""
-    get_kind(p.kind).start_robot(raw, p, reset_seed)
+def start_robot(raw: Any, p: Perturbation, reset_seed: int) -> bool:
+    """Move the arm's start for this reset as ``p`` says; whether its kind moves it at all."""
+    kind = get_kind(p.kind)
+    if type(kind).start_robot is Kind.start_robot:
+        return False
+    kind.start_robot(raw, p, reset_seed)
+    return True
 
 
-def add_noise(obs: dict[str, Any], p: Perturbation, cameras: tuple[str, ...]) -> None:
+def observe(obs: dict[str, Any], p: Perturbation, cameras: tuple[str, ...]) -> None:
     """Change the observation ``obs`` in place as ``p`` says (its ``sim_state`` stays clean)."""
     get_kind(p.kind).observe(obs, p, cameras)

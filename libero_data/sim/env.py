@@ -217,11 +217,11 @@ class LiberoEnv:
         if init_state is None:
             jitter_arm(self._env, seed, self.config.arm_noise)
         self.set_state(self.get_state() if init_state is None else init_state)
-        if self.perturbation is not None and self.perturbation.kind == "robot_init":
+        if self.perturbation is not None:
             from libero_data.perturb.apply import start_robot
 
-            start_robot(self._env, self.perturbation, seed)
-            self.set_state(self.get_state())
+            if start_robot(self._env, self.perturbation, seed):
+                self.set_state(self.get_state())
         if settle:
             for _ in range(settle):
                 self._physics_step(NOOP_ACTION)
@@ -371,10 +371,10 @@ class LiberoEnv:
         if render:
             for camera in self.config.cameras:
                 obs[camera] = self.render(camera)
-        if self.perturbation is not None and self.perturbation.kind == "noise":
-            from libero_data.perturb.apply import add_noise
+        if self.perturbation is not None:
+            from libero_data.perturb.apply import observe
 
-            add_noise(obs, self.perturbation, self.config.cameras if render else ())
+            observe(obs, self.perturbation, self.config.cameras if render else ())
         return obs
 
     def object_poses(self) -> dict[str, np.ndarray]:
