@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
@@ -19,7 +19,7 @@ class Probe(Kind):
 
     order = 99
     summary = "a kind that only records its hooks being called"
-    magnitudes = {"marker": (1, 2, 3, 4, 5)}
+    magnitudes: ClassVar[dict[str, tuple[Any, ...]]] = {"marker": (1, 2, 3, 4, 5)}
 
     def __init__(self, name: str) -> None:
         super().__init__(name)
