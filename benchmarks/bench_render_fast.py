@@ -17,7 +17,7 @@ any suite none was drawn from, then more at random up to N.
 - **encoding error**: the same ``full`` frames through the datasets' video encoder (LeRobot's
   AV1 settings) and back, mean |d| per camera: the error every dataset frame already carries;
 - **where a fast step goes**: physics, then per camera the scene update, the draw and the pixel
-  read-back, each run to completion (``OffscreenRenderer.render_timed``), the triangles drawn,
+  read-back, each run to completion (:func:`render_timed`), the triangles drawn,
   and the reflective surfaces in view (MuJoCo draws the whole scene again, mirrored, in the first
   of them; `fast` leaves that pass out for the wrist camera, whose draw is also timed with it).
 
@@ -35,7 +35,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("SVT_LOG", "1")
@@ -43,6 +43,10 @@ os.environ.setdefault("SVT_LOG", "1")
 import numpy as np
 
 from benchmarks.bench_render import interleaved_rates
+
+if TYPE_CHECKING:
+    from libero_data.sim import LiberoEnv
+    from libero_data.sim.fast.renderer import OffscreenRenderer
 
 NOOP = np.array([0, 0, 0, 0, 0, 0, -1.0])
 PUSH = np.array([0.3, -0.2, -0.25, 0.0, 0.0, 0.1, -1.0])
@@ -100,17 +104,50 @@ def _with_sky(row: dict[str, Any], camera: str) -> str:
     return f"{row[f'{camera}_draw'] * 1e3:.1f}{mark} → {row[f'{camera}_draw_sky'] * 1e3:.1f} ms"
 
 
-def render_parts(env: Any, frames: int) -> dict[str, float]:
+def render_timed(renderer: OffscreenRenderer, model: Any, data: Any, camera_id: int) -> dict[str, float]:
+    """What ``renderer.render`` spends, in its three parts, each run to completion (seconds):
+    ``update`` (the scene's poses, and culling), ``draw`` (``mjr_render`` and the GL work it
+    queued, finished) and ``read`` (the pixels back into memory), and ``triangles``: the mesh
+    triangles in the scene drawn. The image is ``render``'s (``renderer.image()`` after)."""
+    from OpenGL import GL
+
+    renderer.make_current()
+    GL.glFinish()
+    start = time.perf_counter()
+    renderer.update(model, data, camera_id)
+    updated = time.perf_counter()
+    left_out = renderer.draw(model, camera_id)
+    GL.glFinish()
+    drawn = time.perf_counter()
+    renderer.read()
+    read = time.perf_counter()
+    return {
+        "update": updated - start,
+        "draw": drawn - updated,
+        "read": read - drawn,
+        "triangles": renderer.triangles(left_out),
+    }
+
+
+def fast_renderer_of(env: LiberoEnv, camera: str) -> OffscreenRenderer:
+    """The ``fast`` renderer that draws ``camera`` of ``env`` (built on first use)."""
+    if env.fast_images is None:
+        raise ValueError("the environment renders at full quality")
+    return env.fast_images.renderer(env.sim.model._model, env.camera_id(camera))
+
+
+def render_parts(env: LiberoEnv, frames: int) -> dict[str, float]:
     """Medians over ``frames`` renders of each camera: update, draw and read-back seconds, the
     triangles drawn, and the reflective planes and boxes in the scene drawn (agentview)."""
     import mujoco
 
     model, data = env.sim.model._model, env.sim.data._data
-    scene = env._fast._built(model, env._camera_id("agentview"))[0]._scene
+    scene = fast_renderer_of(env, "agentview").scene
     mirrors = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_BOX))
     out: dict[str, float] = {}
     for camera in CAMERAS:
-        timed = [env._fast.render_timed(model, data, env._camera_id(camera)) for _ in range(frames)]
+        own, camera_id = fast_renderer_of(env, camera), env.camera_id(camera)
+        timed = [render_timed(own, model, data, camera_id) for _ in range(frames)]
         for part in timed[0]:
             out[f"{camera}_{part}"] = statistics.median(t[part] for t in timed)
         if camera == "agentview":  # the scene still holds agentview's last render
@@ -118,11 +155,11 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
             out["reflective"] = sum(1 for g in geoms if g.reflectance > 0 and g.type in mirrors)
             out["lights"] = int(scene.nlight)
     # What the wrist camera's draw would cost with the mirror pass `fast` leaves out for it.
-    wrist = env._camera_id("eye_in_hand")
-    renderer = env._fast._built(model, wrist)[0]
+    wrist = env.camera_id("eye_in_hand")
+    renderer = fast_renderer_of(env, "eye_in_hand")
     kept, renderer.unmirrored = renderer.unmirrored, frozenset()
     try:
-        timed = [renderer.render_timed(model, data, wrist) for _ in range(frames)]
+        timed = [render_timed(renderer, model, data, wrist) for _ in range(frames)]
     finally:
         renderer.unmirrored = kept
     out["eye_in_hand_draw_mirrored"] = statistics.median(t["draw"] for t in timed)
@@ -130,29 +167,29 @@ def render_parts(env: Any, frames: int) -> dict[str, float]:
     # (the mirrored draw above has none either: they are only for cameras without the pass).
     queried, renderer.hidden = renderer.hidden, None
     try:
-        timed = [renderer.render_timed(model, data, wrist) for _ in range(frames)]
+        timed = [render_timed(renderer, model, data, wrist) for _ in range(frames)]
     finally:
         renderer.hidden = queried
     out["eye_in_hand_draw_unqueried"] = statistics.median(t["draw"] for t in timed)
     out["eye_in_hand_triangles_unqueried"] = statistics.median(t["triangles"] for t in timed)
     # What agentview's draw would cost from the wrist's renderer: every mesh at 0.5 mm, the
     # distant ones included (the same renderer where the scene has no distant still mesh).
-    front = env._camera_id("agentview")
-    timed = [renderer.render_timed(model, data, front) for _ in range(frames)]
+    front = env.camera_id("agentview")
+    timed = [render_timed(renderer, model, data, front) for _ in range(frames)]
     out["agentview_draw_fine"] = statistics.median(t["draw"] for t in timed)
     out["agentview_triangles_fine"] = statistics.median(t["triangles"] for t in timed)
     # Each camera's draw with the sky, which `fast` leaves out where it is proved covered (.sky).
     sky = int(mujoco.mjtRndFlag.mjRND_SKYBOX)
     for camera in CAMERAS:
-        own = env._fast._built(model, env._camera_id(camera))[0]
-        own.render(model, data, env._camera_id(camera))
-        out[f"{camera}_sky_left_out"] = float(not own._scene.flags[sky])
-        kept, own.sky = own.sky, None
-        own._scene.flags[sky] = 1
+        own, camera_id = fast_renderer_of(env, camera), env.camera_id(camera)
+        own.render(model, data, camera_id)
+        out[f"{camera}_sky_left_out"] = float(not own.scene.flags[sky])
+        cover, own.sky = own.sky, None
+        own.scene.flags[sky] = 1
         try:
-            timed = [own.render_timed(model, data, env._camera_id(camera)) for _ in range(frames)]
+            timed = [render_timed(own, model, data, camera_id) for _ in range(frames)]
         finally:
-            own.sky = kept
+            own.sky = cover
         out[f"{camera}_draw_sky"] = statistics.median(t["draw"] for t in timed)
     return out
 
@@ -231,14 +268,13 @@ def measure(ref: str, size: int, frames: int, reps: int, states: int, cache: str
             libero.set_init_state(init)
             fast.reset(init, seed=0, render=False)
             gl = libero.env.sim._render_context_offscreen.gl_ctx
-            model = fast.sim.model._model
-            own = {id(r): r for r in (fast._fast._built(model, fast._camera_id(c))[0] for c in CAMERAS)}
+            own = {id(r): r for r in (fast_renderer_of(fast, c) for c in CAMERAS)}
             skies = {key: r.sky for key, r in own.items()}
 
             def sky_lever(on: bool) -> None:  # `fast` as it is, or drawing the sky in every frame
                 for key, r in own.items():
                     r.sky = skies[key] if on else None
-                    r._scene.flags[int(mujoco.mjtRndFlag.mjRND_SKYBOX)] = 1
+                    r.scene.flags[int(mujoco.mjtRndFlag.mjRND_SKYBOX)] = 1
 
             out.update(
                 interleaved_rates(

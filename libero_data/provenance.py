@@ -25,18 +25,23 @@ _PACKAGE = Path(__file__).resolve().parent
 #: rewording a table must not make measured episodes stale. The seeds an episode gets
 #: (``libero_data.seeding``) are frozen instead, their values pinned by tests.
 EPISODE_CODE = ("experts", "sim")
-#: Modules inside those folders that do not decide an episode.
+#: Folders and modules inside those that do not decide an episode (a folder: all of it). The fast
+#: renderer draws images only; LIBERO's evaluation loop replays LIBERO's protocol.
 NOT_EPISODE_CODE = (
     "experts/report.py",
-    "sim/render.py",
-    "sim/meshes.py",
-    "sim/meshopt.py",
-    "sim/distant.py",
-    "sim/near.py",
-    "sim/hidden.py",
-    "sim/sky.py",
+    "sim/fast",
     "sim/libero_loop.py",
 )
+
+
+def is_episode_code(path: str) -> bool:
+    """Whether the module at ``path`` (relative to the package, ``/``-separated) is in
+    :data:`EPISODE_CODE` and not in :data:`NOT_EPISODE_CODE`."""
+
+    def under(entries: tuple[str, ...]) -> bool:
+        return any(path == entry or path.startswith(entry + "/") for entry in entries)
+
+    return under(EPISODE_CODE) and not under(NOT_EPISODE_CODE)
 
 
 @functools.cache
@@ -46,8 +51,8 @@ def expert_code() -> str:
     for entry in EPISODE_CODE:
         path = _PACKAGE / entry
         paths.extend(path.rglob("*.py") if path.is_dir() else [path])
-    skip = {_PACKAGE / p for p in NOT_EPISODE_CODE}
-    return code_digest(sorted(p for p in paths if p not in skip), _PACKAGE)
+    kept = (p for p in paths if is_episode_code(p.relative_to(_PACKAGE).as_posix()))
+    return code_digest(sorted(kept), _PACKAGE)
 
 
 def code_digest(paths: Iterable[Path], root: Path) -> str:

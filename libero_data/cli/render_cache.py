@@ -44,7 +44,7 @@ def render_cache_cmd(
     any of them builds a new entry. Safe to interrupt and run again.
     """
     from libero_data.pipeline.mesh_cache import CacheBuild, build_mesh_cache
-    from libero_data.sim.meshes import CACHE_FOLDER, cache_root
+    from libero_data.sim.fast.meshes import CACHE_FOLDER, cache_root
     from libero_data.tasks import get_suite
 
     names = split_list(suites) or ["libero_spatial", "libero_object", "libero_goal", "libero_10", "libero_90"]

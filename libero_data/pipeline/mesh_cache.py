@@ -36,11 +36,11 @@ def build_mesh_cache(
     """Simplify (or find in the cache) the drawn meshes of every task's scene, and the coarser
     copies of its distant meshes that the fixed cameras draw at each of ``image_sizes``."""
     from libero_data.sim import EnvConfig, LiberoEnv
-    from libero_data.sim.distant import distant_errors
     from libero_data.sim.env import CAMERAS
-    from libero_data.sim.meshes import MeshSettings, drawn_geoms
-    from libero_data.sim.near import detailed_objects
-    from libero_data.sim.render import simplified_meshes
+    from libero_data.sim.fast.distant import distant_errors
+    from libero_data.sim.fast.meshes import MeshSettings, drawn_geoms
+    from libero_data.sim.fast.near import detailed_objects
+    from libero_data.sim.fast.simplify import simplified_meshes
 
     build = CacheBuild()
     start = time.perf_counter()

@@ -17,12 +17,13 @@ from libero_data.bddl import And, Atom, Formula, Not, Or, Problem, parse_file
 from libero_data.config import Config
 from libero_data.errors import BDDLError, InputError, MissingFileError, SceneError
 from libero_data.sim.arm import ARM_INIT_NOISE, check_arm_noise, jitter_arm
-from libero_data.sim.gl import select_backend
+from libero_data.sim.gl import gl_strings, select_backend
 from libero_data.sim.imports import import_libero
 from libero_data.sim.rotations import quat_to_axis_angle, wxyz_to_xyzw
 from libero_data.sim.stepper import resting_open
 
 if TYPE_CHECKING:
+    from libero_data.sim.fast.images import FastImages
     from libero_data.tasks import Task
 
 log = logging.getLogger(__name__)
@@ -31,7 +32,7 @@ log = logging.getLogger(__name__)
 CAMERAS: dict[str, str] = {"agentview": "agentview", "eye_in_hand": "robot0_eye_in_hand"}
 ACTION_DIM = 7
 #: How images are drawn: ``full`` is LIBERO's renderer as it is (pixel for pixel); ``fast``
-#: draws simplified visual meshes (libero_data.sim.render), held close to ``full`` by tests and
+#: draws simplified visual meshes (libero_data.sim.fast), held close to ``full`` by tests and
 #: measured against it in every dataset made with it.
 RENDER_QUALITIES = ("full", "fast")
 #: Zero motion, gripper open.
@@ -103,7 +104,7 @@ class LiberoEnv:
         self._gl_info: dict[str, str] | None = None
         self._env = self._build()
         self._trim_step()
-        self._fast: Any = None  # libero_data.sim.render.FastImages with render_quality="fast"
+        self.fast_images: FastImages | None = None  # render_quality="fast": its renderers (tests, benchmarks)
         self.perturbation = _perturbation_of(self.problem.perturbation)
         if self.perturbation is not None:
             from libero_data.perturb.apply import apply_scene
@@ -118,10 +119,10 @@ class LiberoEnv:
                     field="cameras",
                 )
         if self.config.cameras and self.config.render_quality == "fast":
-            from libero_data.sim.render import FastImages
+            from libero_data.sim.fast.images import FastImages
 
-            ids = [self._camera_id(c) for c in self.config.cameras]
-            self._fast = FastImages(self.config.image_size, ids, self.backend, self.config.mesh_cache)
+            ids = [self.camera_id(c) for c in self.config.cameras]
+            self.fast_images = FastImages(self.config.image_size, ids, self.backend, self.config.mesh_cache)
         self._closed = False
 
     # construction ---------------------------------------------------------------------
@@ -307,8 +308,8 @@ class LiberoEnv:
         """One upright RGB image from ``camera`` at the configured size and render quality."""
         if not self.config.cameras:
             raise RuntimeError("this environment was built without cameras (EnvConfig.cameras=())")
-        if self._fast is not None:
-            return self._fast.render(self.sim.model._model, self.sim.data._data, self._camera_id(camera))
+        if self.fast_images is not None:
+            return self.fast_images.render(self.sim.model._model, self.sim.data._data, self.camera_id(camera))
         size = self.config.image_size
         sim = self._env.sim
         # robosuite renders into whichever OpenGL context is current, and creating another
@@ -321,19 +322,19 @@ class LiberoEnv:
         return np.ascontiguousarray(image[::-1, ::-1])
 
     def render_full(self, camera: str) -> np.ndarray:
-        """``camera``'s image at full quality (LIBERO's pixels), whatever the render quality.
-
-        The reference that ``fast`` images are measured against.
-        """
-        if self._fast is None:
+        """``camera``'s image at full quality (LIBERO's pixels), whatever the render quality: the
+        reference that ``fast`` images are measured against."""
+        fast = self.fast_images
+        if fast is None:
             return self.render(camera)
-        return self._fast.render_full(self.sim.model._model, self.sim.data._data, self._camera_id(camera))
+        return fast.render_full(self.sim.model._model, self.sim.data._data, self.camera_id(camera))
 
     def render_scene(self) -> dict[str, Any]:
         """How images are drawn: the quality, and for ``fast`` the triangles drawn and settings."""
-        return {"quality": "full"} if self._fast is None else self._fast.info()
+        return {"quality": "full"} if self.fast_images is None else self.fast_images.info()
 
-    def _camera_id(self, camera: str) -> int:
+    def camera_id(self, camera: str) -> int:
+        """The MuJoCo id of ``camera`` (our name or robosuite's)."""
         return int(self.sim.model.camera_name2id(CAMERAS.get(camera, camera)))
 
     def gl_info(self) -> dict[str, str] | None:
@@ -344,11 +345,9 @@ class LiberoEnv:
         """
         if not self.config.cameras:
             return None
-        if self._gl_info is None and self._fast is not None:
-            self._gl_info = self._fast.gl_info(self.sim.model._model)
+        if self._gl_info is None and self.fast_images is not None:
+            self._gl_info = self.fast_images.gl_info(self.sim.model._model)
         if self._gl_info is None:
-            from libero_data.sim.render import gl_strings
-
             self._env.sim._render_context_offscreen.gl_ctx.make_current()
             self._gl_info = gl_strings(self.backend)
         return dict(self._gl_info)
@@ -406,7 +405,7 @@ class LiberoEnv:
 
     # lifetime ---------------------------------------------------------------------------
     def close(self) -> None:
-        fast = self.__dict__.pop("_fast", None)
+        fast = self.__dict__.pop("fast_images", None)
         if fast is not None:
             fast.close()
         if getattr(self, "_closed", True) is False or hasattr(self, "_env"):

@@ -1,4 +1,5 @@
-"""Choosing MuJoCo's headless OpenGL backend (EGL or OSMesa) before MuJoCo is imported."""
+"""Choosing MuJoCo's headless OpenGL backend (EGL or OSMesa) before MuJoCo is imported, and
+naming the OpenGL implementation that draws (:func:`gl_strings`)."""
 
 from __future__ import annotations
 
@@ -54,3 +55,15 @@ def select_backend(requested: str | None = None) -> str:
         os.environ["MUJOCO_GL"] = choice
         os.environ["PYOPENGL_PLATFORM"] = choice
     return os.environ.get("MUJOCO_GL", choice)
+
+
+def gl_strings(backend: str | None) -> dict[str, str]:
+    """The current OpenGL context's vendor, renderer and version (and the backend named)."""
+    from OpenGL import GL
+
+    return {
+        "backend": str(backend),
+        "vendor": GL.glGetString(GL.GL_VENDOR).decode(errors="replace"),
+        "renderer": GL.glGetString(GL.GL_RENDERER).decode(errors="replace"),
+        "version": GL.glGetString(GL.GL_VERSION).decode(errors="replace"),
+    }

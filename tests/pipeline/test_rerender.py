@@ -52,7 +52,7 @@ def test_rerender_gives_the_same_episodes_at_256_with_lerobots_names_and_fast_im
 ) -> None:
     """One re-render (2 workers) checked for what any re-render keeps (the episodes), for the
     naming profile and size asked, and for the render quality asked with its measured difference."""
-    from libero_data.sim.render import FAST_MEAN_BOUND
+    from libero_data.sim.fast.images import FAST_MEAN_BOUND
 
     out = tmp_path / "big"
     args = ["--features", "lerobot-libero", "--render-quality", "fast"]

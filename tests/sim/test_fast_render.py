@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.bench_render_fast import fast_renderer_of, render_timed
 from libero_data.sim import EnvConfig, LiberoEnv
-from libero_data.sim.render import FAST_MEAN_BOUND
+from libero_data.sim.fast.images import FAST_MEAN_BOUND
 from libero_data.tasks import get_task
 
 pytestmark = pytest.mark.sim
@@ -50,12 +51,12 @@ def test_leaving_out_geoms_outside_the_view_changes_no_pixel() -> None:
     with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
         env.render("agentview")
-        renderer = env._fast._built(env.sim.model._model, env._camera_id("agentview"))[0]
+        renderer = fast_renderer_of(env, "agentview")
         assert renderer.cull
         culled = {c: env.render(c) for c in CAMERAS}
         # The timed render (for benchmarks) draws the same image and counts what it drew.
-        timed = renderer.render_timed(env.sim.model._model, env.sim.data._data, env._camera_id("agentview"))
-        assert np.array_equal(renderer._pixels[::-1, ::-1], culled["agentview"])
+        timed = render_timed(renderer, env.sim.model._model, env.sim.data._data, env.camera_id("agentview"))
+        assert np.array_equal(renderer.image(), culled["agentview"])
         assert all(timed[part] > 0 for part in ("update", "draw", "read"))
         assert 0 < timed["triangles"] < env.render_scene()["faces_after"]  # culled: fewer than all
         renderer.cull = False
@@ -74,14 +75,14 @@ def test_what_a_study_room_leaves_out_changes_no_pixel() -> None:
     with LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
         model, data = env.sim.model._model, env.sim.data._data
-        wrist = env._camera_id("eye_in_hand")
+        wrist = env.camera_id("eye_in_hand")
         env.render("eye_in_hand")
-        renderer = env._fast._built(model, wrist)[0]
-        renderers = {id(r): r for r in (env._fast._built(model, env._camera_id(c))[0] for c in CAMERAS)}
+        renderer = fast_renderer_of(env, "eye_in_hand")
+        renderers = {id(r): r for r in (fast_renderer_of(env, c) for c in CAMERAS)}
         hidden = renderer.hidden
         assert hidden is not None and len(hidden.geoms) >= 2
         renderer.hidden = None
-        assert renderer.render_timed(model, data, wrist)["triangles"] < 55_000
+        assert render_timed(renderer, model, data, wrist)["triangles"] < 55_000
         renderer.hidden = hidden
         fewer, shown, skyless = 0, 0, 0
         skies = {key: r.sky for key, r in renderers.items()}
@@ -89,17 +90,17 @@ def test_what_a_study_room_leaves_out_changes_no_pixel() -> None:
             images = {}
             for camera in CAMERAS:
                 images[camera] = env.render(camera)
-                skyless += not env._fast._built(model, env._camera_id(camera))[0]._scene.flags[SKYBOX]
-            shown += bool(hidden._visible)
-            left = renderer.render_timed(model, data, wrist)["triangles"]
+                skyless += not fast_renderer_of(env, camera).scene.flags[SKYBOX]
+            shown += bool(hidden.found_visible)
+            left = render_timed(renderer, model, data, wrist)["triangles"]
             for r in renderers.values():
                 r.cull, r.hidden, r.sky = False, None, None
-                r._scene.flags[SKYBOX] = 1
+                r.scene.flags[SKYBOX] = 1
             for camera in CAMERAS:
                 assert np.array_equal(env.render(camera), images[camera]), camera
             for key, r in renderers.items():
                 r.cull, r.sky = True, skies[key]
-            fewer += left < renderer.render_timed(model, data, wrist)["triangles"]
+            fewer += left < render_timed(renderer, model, data, wrist)["triangles"]
             renderer.hidden = hidden
             for _ in range(12):
                 env.advance(PUSH)
@@ -114,18 +115,17 @@ def test_the_wrist_camera_is_drawn_without_the_mirror_pass_and_nearly_the_same()
     task = get_task("libero_goal/1")  # the bowl onto the stove, a reflective box
     with LiberoEnv(task, EnvConfig(image_size=128, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
-        model = env.sim.model._model
-        wrist, front = env._camera_id("eye_in_hand"), env._camera_id("agentview")
-        near, far = (env._fast._built(model, c)[0] for c in (wrist, front))
+        wrist = env.camera_id("eye_in_hand")
+        near, far = (fast_renderer_of(env, c) for c in ("eye_in_hand", "agentview"))
         assert near.unmirrored == far.unmirrored == frozenset({wrist})  # the fixed camera keeps them
         reflection = mujoco.mjtRndFlag.mjRND_REFLECTION
         for _ in range(3):
             for _ in range(8):
                 env.advance(PUSH)
             unmirrored = env.render("eye_in_hand")
-            assert near._scene.flags[reflection] == 0
+            assert near.scene.flags[reflection] == 0
             env.render("agentview")
-            assert far._scene.flags[reflection] == 1
+            assert far.scene.flags[reflection] == 1
             near.unmirrored = frozenset()
             mirrored = env.render("eye_in_hand")
             near.unmirrored = frozenset({wrist})
@@ -133,15 +133,17 @@ def test_the_wrist_camera_is_drawn_without_the_mirror_pass_and_nearly_the_same()
 
 
 def test_the_fixed_camera_draws_distant_still_meshes_coarser_and_the_wrist_does_not() -> None:
-    from libero_data.sim.distant import LEVELS, still_geoms
-    from libero_data.sim.meshes import MeshSettings
+    from libero_data.sim.fast.distant import LEVELS, still_geoms
+    from libero_data.sim.fast.meshes import MeshSettings
 
     task = get_task("libero_90/0")  # a kitchen: its background and the robot's pedestal stand far
     with LiberoEnv(task, EnvConfig(image_size=128, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
         model = env.sim.model._model
-        wrist, front = env._camera_id("eye_in_hand"), env._camera_id("agentview")
-        (near, near_scene), (far, far_scene) = (env._fast._built(model, c) for c in (wrist, front))
+        wrist, front = env.camera_id("eye_in_hand"), env.camera_id("agentview")
+        assert env.fast_images is not None
+        near, far = (env.fast_images.renderer(model, c) for c in (wrist, front))
+        near_scene, far_scene = (env.fast_images.fast_scene(model, c) for c in (wrist, front))
         assert near is not far and far_scene.faces_drawn_after < 0.8 * near_scene.faces_drawn_after
         still = still_geoms(model, [front, wrist])
         names = {model.body(int(model.body_rootid[model.geom_bodyid[g]])).name for g in np.flatnonzero(still)}
@@ -149,9 +151,9 @@ def test_the_fixed_camera_draws_distant_still_meshes_coarser_and_the_wrist_does_
         # Only meshes of still geoms are coarser for the fixed camera; every other mesh is the same.
         meshes = model.geom_type == 7  # mjGEOM_MESH
         only_still = set(model.geom_dataid[meshes & still]) - set(model.geom_dataid[meshes & ~still])
-        coarser = set(np.flatnonzero(far._facenum < near._facenum))
+        coarser = set(np.flatnonzero(far.facenum < near.facenum))
         assert coarser and coarser <= only_still
-        assert np.all(far._facenum <= near._facenum)
+        assert np.all(far.facenum <= near.facenum)
         assert MeshSettings().max_error == LEVELS[0]
         for camera in CAMERAS:
             env.render(camera)
@@ -163,9 +165,10 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
     # (libero_90/23's bowl: 0.0123 -> 0.0060), not from afar: the detailed copy is swapped into
     # the context while the camera is near, and the image is then exactly that of a context
     # built with the detailed copy; moved away again, exactly that of the coarse one.
-    from libero_data.sim.distant import TEXTURE_PER_IMAGE
-    from libero_data.sim.near import NEAR_OBJECT_M, detailed_objects, object_meshes
-    from libero_data.sim.render import fast_renderer, simplified_meshes
+    from libero_data.sim.fast.images import fast_renderer
+    from libero_data.sim.fast.near import NEAR_OBJECT_M, detailed_objects, object_meshes
+    from libero_data.sim.fast.simplify import simplified_meshes
+    from libero_data.sim.fast.texture_size import TEXTURE_PER_IMAGE
 
     task = get_task("libero_object/0")
     size = 96
@@ -173,10 +176,10 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
     with LiberoEnv(task, EnvConfig(image_size=size, render_quality="fast")) as env:
         env.reset(task.init_states()[0], seed=0, render=False)
         model, data = env.sim.model._model, env.sim.data._data
-        ids = [env._camera_id(c) for c in CAMERAS]
-        wrist = env._camera_id("eye_in_hand")
+        ids = [env.camera_id(c) for c in CAMERAS]
+        wrist = env.camera_id("eye_in_hand")
         env.render("eye_in_hand")
-        renderer, _ = env._fast._built(model, wrist)
+        renderer = fast_renderer_of(env, "eye_in_hand")
         near = renderer.detail
         assert near is not None and near.near == NEAR_OBJECT_M
         faces, _ = simplified_meshes(model, ids, progress=False)
@@ -193,7 +196,7 @@ def test_objects_near_the_wrist_camera_are_drawn_from_their_detailed_copies() ->
             assert near.detailed == wanted
             held = {**faces, **{i: detail[i] for i in wanted}}
             reference = fast_renderer(
-                model, size, ids, held, TEXTURE_PER_IMAGE["mounted"] * size, env._fast.backend
+                model, size, ids, held, TEXTURE_PER_IMAGE["mounted"] * size, env.backend
             )
             try:
                 assert np.array_equal(reference.render(model, data, wrist), image)

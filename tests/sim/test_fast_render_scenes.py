@@ -10,7 +10,7 @@ import pytest
 
 from benchmarks.bench_render_fast import PUSH, sample_scenes
 from libero_data.sim import EnvConfig, LiberoEnv
-from libero_data.sim.render import FAST_MEAN_BOUND
+from libero_data.sim.fast.images import FAST_MEAN_BOUND
 from libero_data.tasks import get_task
 
 pytestmark = [pytest.mark.sim, pytest.mark.slow]

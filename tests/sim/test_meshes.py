@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from libero_data.sim.meshes import MeshCache, MeshData, MeshSettings, simplify_mesh
+from libero_data.sim.fast.meshes import MeshCache, MeshData, MeshSettings, simplify_mesh
 
 
 def _sphere(rings: int = 40, segments: int = 60, radius: float = 0.05) -> MeshData:
@@ -93,7 +93,7 @@ def test_the_cache_is_reused_and_rebuilt_when_the_settings_or_the_mesh_change(tm
 
 
 def test_the_cache_lives_where_it_is_told(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from libero_data.sim.meshes import CACHE_FOLDER, cache_root
+    from libero_data.sim.fast.meshes import CACHE_FOLDER, cache_root
 
     monkeypatch.setenv("LIBERO_DATA_CACHE", str(tmp_path / "env"))
     assert cache_root() == tmp_path / "env"

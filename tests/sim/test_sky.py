@@ -1,4 +1,4 @@
-"""``fast`` leaves the skybox out only where it is proved to show in no sample (libero_data.sim.sky):
+"""``fast`` leaves the skybox out only where it is proved to show in no sample (libero_data.sim.fast.sky):
 on a small scene whose cameras see the sky from some poses and not from others, every image is
 the one drawn with the sky, and the sky is left out where a camera looks only at the floor or
 a table top. And culling, which bounds a view by its vertical angle, is off for a camera whose
@@ -42,9 +42,9 @@ SKYBOX = 4  # mjtRndFlag.mjRND_SKYBOX
 def scene():
     import mujoco
 
+    from libero_data.sim.fast.renderer import OffscreenRenderer
+    from libero_data.sim.fast.sky import SkyCover
     from libero_data.sim.gl import select_backend
-    from libero_data.sim.render import OffscreenRenderer
-    from libero_data.sim.sky import SkyCover
 
     backend = select_backend()
     model = mujoco.MjModel.from_xml_string(SCENE)
@@ -63,7 +63,7 @@ def _draw(model, data, fast, full, camera: str) -> tuple[bool, np.ndarray, np.nd
 
     camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
     image = fast.render(model, data, camera_id)
-    return bool(fast._scene.flags[SKYBOX]), image, full.render(model, data, camera_id)
+    return bool(fast.scene.flags[SKYBOX]), image, full.render(model, data, camera_id)
 
 
 def test_the_sky_is_left_out_only_where_it_cannot_show(scene) -> None:
@@ -77,10 +77,10 @@ def test_the_sky_is_left_out_only_where_it_cannot_show(scene) -> None:
     drawn, image, reference = _draw(model, data, fast, full, "horizon")
     assert drawn and np.array_equal(image, reference)
     no_sky = reference.copy()
-    full._scene.flags[SKYBOX] = 0
+    full.scene.flags[SKYBOX] = 0
     camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "horizon")
     assert not np.array_equal(full.render(model, data, camera_id), no_sky)  # the sky does show
-    full._scene.flags[SKYBOX] = 1
+    full.scene.flags[SKYBOX] = 1
     # A camera on a moving body, looking down at the table top from 0.4 m: the box's top face
     # meets every corner ray (the small floor would not).
     drawn, image, reference = _draw(model, data, fast, full, "wrist")
@@ -118,8 +118,8 @@ def test_culling_is_off_where_a_view_is_not_set_by_its_vertical_angle(scene) -> 
     # a width in metres, and the cup 0.1 m off its axis would be culled as outside a 0.3-degree view.
     import mujoco
 
+    from libero_data.sim.fast.renderer import OffscreenRenderer
     from libero_data.sim.gl import select_backend
-    from libero_data.sim.render import OffscreenRenderer
 
     model, data, _, full = scene
     culled = OffscreenRenderer(model, 64, select_backend(), cull=True)

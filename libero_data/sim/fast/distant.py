@@ -10,16 +10,6 @@ nearest to any of them; meshes that move, or that LIBERO places anew at every re
 a cabinet, a stove), keep the 0.5 mm copies, so the choice depends on the model alone and is
 the same in every process whatever it reset to first.
 
-Each renderer's copy of the model also has its large textures halved until they are at most
-:data:`TEXTURE_PER_IMAGE` times the image wide (a 4096x4096 bowl texture is 512x512 for
-agentview and 1024x1024 for the wrist at 128 px). The fixed and the mounted cameras each have a
-GL context of their own (:class:`~libero_data.sim.render.FastImages`), and each would otherwise
-hold every texture at full size: halved, the two contexts together hold about what one context
-of full-size textures would. A camera never shows more of a texture than that width, so the
-mip levels it samples, and with them the images, barely change (they are held to
-:data:`~libero_data.sim.render.FAST_MEAN_BOUND` with the rest of ``fast``:
-tests/sim/test_fast_render_scenes.py).
-
 What cannot move, from the model alone: geoms welded to the world (``body_weldid == 0``) that
 belong to the world body itself (a scene's background) or to the robot that carries a mounted
 camera (its fixed base link and pedestal). Fixtures are bodies of their own under the world.
@@ -31,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.sim.fast.cameras import mounted_cameras
+
 #: The largest simplification error allowed for the fixed cameras, in pixels at the mesh's
 #: nearest vertex: under a pixel, so a distant mesh's outline moves by less than a pixel while
 #: the mesh sheds most of its triangles. What it saves is the column "agentview draw, with
@@ -38,23 +30,6 @@ import numpy as np
 SCREEN_ERROR_PX = 0.25
 #: The simplification errors (metres) a distant mesh may take: few, so the cache holds few copies.
 LEVELS = (0.0005, 0.001, 0.002, 0.004, 0.008)
-#: Textures are halved (2x2 means) while wider than this many times the image, for the fixed
-#: cameras (whose frame never shows more of a texture than that, so the mip levels sampled
-#: stay) and for the mounted ones (a few centimetres from an object).
-TEXTURE_PER_IMAGE = {"fixed": 4, "mounted": 8}
-
-
-def mounted_cameras(model: Any, camera_ids: list[int]) -> frozenset[int]:
-    """The cameras on a body (the wrist camera); the others are fixed to the world.
-
-    ``fast`` draws the mounted ones without MuJoCo's mirror pass. Looking down along the gripper
-    at a reflective surface, such a camera sees in it mostly the mirror image of what stands
-    between them, hidden behind the thing itself. Dropping the pass, which draws every geom a
-    second time, therefore changes the wrist image little and saves much of its draw where a
-    reflective surface is in the scene (benchmarks/RESULTS.md, Fast rendering: the column "wrist
-    draw, with its mirror pass"). From the fixed cameras the reflection shows, so they keep it.
-    """
-    return frozenset(c for c in camera_ids if int(model.cam_bodyid[c]) != 0)
 
 
 def still_geoms(model: Any, camera_ids: list[int]) -> np.ndarray:
@@ -99,27 +74,3 @@ def distant_errors(
         if level > base:
             out[i] = level
     return out
-
-
-def shrink_textures(model: Any, cap: int) -> None:
-    """Halve ``model``'s 2-D textures (in place: a render copy) while they are wider or taller
-    than ``cap`` and even in both."""
-    import mujoco
-
-    for t in range(model.ntex):
-        if model.tex_type[t] != mujoco.mjtTexture.mjTEXTURE_2D:
-            continue
-        width, height, channels = (
-            int(model.tex_width[t]),
-            int(model.tex_height[t]),
-            int(model.tex_nchannel[t]),
-        )
-        start = int(model.tex_adr[t])
-        image = np.asarray(model.tex_data[start : start + width * height * channels], dtype=np.float32)
-        image = image.reshape(height, width, channels)
-        while max(image.shape[:2]) > cap and image.shape[0] % 2 == 0 and image.shape[1] % 2 == 0:
-            h, w = image.shape[0] // 2, image.shape[1] // 2
-            image = image.reshape(h, 2, w, 2, channels).mean(axis=(1, 3))
-        if image.shape[:2] != (height, width):
-            model.tex_data[start : start + image.size] = np.round(image).astype(np.uint8).reshape(-1)
-            model.tex_height[t], model.tex_width[t] = image.shape[:2]

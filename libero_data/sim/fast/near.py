@@ -1,11 +1,11 @@
 """Free objects drawn finer while a mounted camera is near them (``render_quality="fast"``).
 
-``fast`` simplifies every mesh to within 0.5 mm (:mod:`libero_data.sim.meshes`), with the
+``fast`` simplifies every mesh to within 0.5 mm (:mod:`.meshes`), with the
 normals weighed lightly. That holds a mesh's shape, but a finely bumped or curved object a few
 centimetres from the wrist camera also shows its normals: there a drifted normal moves the
 shading inside the object. Pushing the gripper down onto a bowl, nearly all of the wrist
 image's |fast - full| lies inside the bowl, and it grows with the bowl's share of the frame
-until it passes :data:`~libero_data.sim.render.FAST_MEAN_BOUND` (benchmarks/RESULTS.md, Fast
+until it passes :data:`~libero_data.sim.fast.images.FAST_MEAN_BOUND` (benchmarks/RESULTS.md, Fast
 rendering). The free objects (what the tasks move, and what the gripper approaches) therefore
 get a second, detailed copy, simplified with :attr:`MeshSettings.object_normal_weight`; the
 mounted cameras' context holds it only while one of them is within :data:`NEAR_OBJECT_M` of
@@ -22,13 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from libero_data.sim.meshes import (
+from libero_data.sim.fast.cameras import camera_meshes, mounted_cameras
+from libero_data.sim.fast.meshes import (
     CacheReport,
     MeshCache,
     MeshData,
     MeshSettings,
     apply_faces,
-    camera_meshes,
     drawn_meshes,
 )
 
@@ -36,7 +36,7 @@ from libero_data.sim.meshes import (
 #: within this many metres of the object's bounding sphere. The nearer the camera, the more of
 #: the frame the object fills and the more the coarse copy's shading moves the wrist image
 #: away from ``full``; swapping at this distance keeps the worst wrist frame along the
-#: benchmark's push within :data:`~libero_data.sim.render.FAST_MEAN_BOUND` in every sampled
+#: benchmark's push within :data:`~libero_data.sim.fast.images.FAST_MEAN_BOUND` in every sampled
 #: scene (tests/sim/test_fast_render_scenes.py; benchmarks/RESULTS.md, Fast rendering).
 NEAR_OBJECT_M = 0.15
 
@@ -91,8 +91,6 @@ class NearDetail:
         near: float = NEAR_OBJECT_M,
     ) -> None:
         import mujoco
-
-        from libero_data.sim.distant import mounted_cameras
 
         self.model, self.fine, self.near = render_model, detail, near
         self.coarse = {i: faces[i] for i in detail}

@@ -52,13 +52,13 @@ class MeshSettings(Config):
     normal counts against ``max_error`` beside the change of shape. Weighed lightly, texture
     coordinates drift far enough that the wood of a table or the print on a bowl slides under
     the wrist camera: the image then differs from ``full`` inside surfaces, not along
-    silhouettes, by more than :data:`~libero_data.sim.render.FAST_MEAN_BOUND`. Texture
+    silhouettes, by more than :data:`~libero_data.sim.fast.images.FAST_MEAN_BOUND`. Texture
     coordinates are therefore weighed heavily, which keeps few more triangles than a light
     weight does (benchmarks/RESULTS.md, Fast rendering: texture coordinates drifted).
 
     ``object_normal_weight`` replaces ``normal_weight`` in the detailed copies of free objects'
     meshes (bodies on a free joint: what the tasks move) that a mounted camera draws while it is
-    near them (:class:`~libero_data.sim.render.NearDetail`). A few centimetres from the wrist
+    near them (:class:`~libero_data.sim.fast.near.NearDetail`). A few centimetres from the wrist
     camera a drifted normal moves the shading inside the object, which then fills much of the
     frame: pushing the gripper down onto a bowl, nearly all of the wrist image's |fast - full|
     lies inside the bowl and passes the bound at ``normal_weight``, not at this weight. Every
@@ -118,7 +118,7 @@ class MeshData:
         """The cache key: these arrays, the settings :func:`simplify_mesh` reads and the code
         that simplifies them (which meshes take ``object_normal_weight`` is the caller's choice,
         made by passing it as ``normal_weight``)."""
-        from libero_data.sim import meshopt
+        from libero_data.sim.fast import meshopt
 
         digest = hashlib.sha256()
         used = {k: v for k, v in settings.to_dict().items() if k != "object_normal_weight"}
@@ -137,7 +137,7 @@ def simplify_mesh(mesh: MeshData, settings: MeshSettings) -> np.ndarray:
     keeps a vertex per face corner for many meshes), so the simplifier sees the surface's
     real topology and keeps texture seams. A mesh the simplifier cannot reduce comes back whole.
     """
-    from libero_data.sim import meshopt
+    from libero_data.sim.fast import meshopt
 
     whole = np.stack([mesh.face, mesh.facenormal, mesh.facetexcoord], axis=-1).astype(np.int32)
     if mesh.faces <= settings.min_faces:
@@ -328,38 +328,3 @@ def drawn_meshes(model: Any) -> dict[int, int]:
 def drawn_geoms(model: Any) -> np.ndarray:
     """Per geom: whether a camera draws it (a visible group, not fully transparent)."""
     return np.isin(model.geom_group, DRAWN_GROUPS) & (model.geom_rgba[:, 3] > 0)
-
-
-_SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64)
-
-
-def fovy_views(model: Any) -> np.ndarray:
-    """Per camera: whether its view is a perspective set by its vertical angle ``cam_fovy`` alone
-    (not orthographic, where ``cam_fovy`` is a width in metres, and no sensor size), the view that
-    culling and the sky's corner rays bound."""
-    return (model.cam_projection == 0) & ~np.any(model.cam_sensorsize > 0, axis=-1)
-
-
-def box_corners(pos: np.ndarray, mat: np.ndarray, aabb: np.ndarray, margin: float = 0.0) -> np.ndarray:
-    """The world corners ``(n, 8, 3)`` of geoms' bounding boxes, each enlarged by ``margin``:
-    ``pos`` ``(n, 3)`` and ``mat`` ``(n, 3, 3)`` the geoms' frames, ``aabb`` ``(n, 6)`` MuJoCo's
-    ``geom_aabb`` (centre, then half-sizes, in the geom's frame). Corner ``i`` takes the sign
-    ``-``/``+`` per axis from the bits of ``i`` (x the highest)."""
-    local = aabb[:, None, :3] + _SIGNS[None] * (aabb[:, None, 3:] + margin)
-    return pos[:, None] + local @ mat.transpose(0, 2, 1)
-
-
-def camera_meshes(model: Any, camera_ids: list[int]) -> set[int]:
-    """Meshes on the bodies of cameras mounted on a body (not the world), and on their descendants."""
-    import mujoco
-
-    from libero_data.sim.distant import mounted_cameras
-
-    roots = {int(model.cam_bodyid[c]) for c in mounted_cameras(model, camera_ids)}
-    if not roots:
-        return set()
-    inside = np.zeros(model.nbody, dtype=bool)
-    for body in range(1, model.nbody):  # parents come before children in MuJoCo's body order
-        inside[body] = body in roots or bool(inside[model.body_parentid[body]])
-    is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
-    return {int(i) for i in model.geom_dataid[is_mesh & inside[model.geom_bodyid]]}

@@ -28,6 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.sim.fast.culling import box_corners, fovy_views
+from libero_data.sim.fast.hidden import box_samples, render_without, unmoving_geoms
+from libero_data.sim.fast.meshes import DRAWN_GROUPS
+
 #: The proof by plane asks every corner ray to meet the plane nearer than this share of the far
 #: plane (the sky cylinder stands at 0.7 of it).
 SKY_MARGIN = 0.5
@@ -38,9 +42,6 @@ class SkyCover:
 
     def __init__(self, model: Any) -> None:
         import mujoco
-
-        from libero_data.sim.hidden import unmoving_geoms
-        from libero_data.sim.meshes import DRAWN_GROUPS, fovy_views
 
         still = unmoving_geoms(model)
         self.still = np.flatnonzero(still)
@@ -63,9 +64,10 @@ class SkyCover:
         self._proved: dict[int, tuple[bytes, bool]] = {}  # fixed camera -> (poses, covered)
         self._faces: tuple[bytes, tuple[np.ndarray, ...]] | None = None  # (poses, opaque faces)
 
-    def shows(self, model: Any, data: Any, renderer: Any, camera_id: int) -> bool:
-        """Whether camera ``camera_id`` may see the sky in ``renderer``'s scene (updated for it, its
-        context current): False only where proved covered."""
+    def shows(self, model: Any, data: Any, scene: Any, context: Any, viewport: Any, camera_id: int) -> bool:
+        """Whether camera ``camera_id`` may see the sky in ``scene`` (an ``MjvScene`` updated for
+        it, drawn with ``context`` into ``viewport``, the GL context current): False only where
+        proved covered."""
         import mujoco
 
         fixed = (
@@ -77,7 +79,7 @@ class SkyCover:
         if fixed:
             key = data.cam_xpos[camera_id].tobytes() + data.cam_xmat[camera_id].tobytes() + still
             if camera_id not in self._proved or self._proved[camera_id][0] != key:
-                covered = _still_covers(self.still, renderer._scene, renderer._con, renderer._viewport)
+                covered = _still_covers(self.still, scene, context, viewport)
                 self._proved[camera_id] = (key, covered)
             if self._proved[camera_id][1]:
                 return False
@@ -141,9 +143,6 @@ def _still_covers(still: np.ndarray, scene: Any, context: Any, viewport: Any) ->
     """Draw only the still geoms of ``scene``, without the sky, and ask whether any sample
     of a box around the camera, between them and the sky, passes the depth test."""
     import mujoco
-
-    from libero_data.sim.hidden import box_samples, render_without
-    from libero_data.sim.meshes import box_corners
 
     kept = set(int(g) for g in still)
     rows = [

@@ -27,6 +27,9 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.sim.fast.culling import box_corners
+from libero_data.sim.fast.meshes import drawn_geoms
+
 #: Meshes with fewer triangles (in the drawing context) are not worth a query.
 MIN_TRIANGLES = 4000
 #: The bounding box is enlarged by this much (metres) on every side before the query.
@@ -43,8 +46,6 @@ def large_still_meshes(model: Any) -> set[int]:
     """Geoms of ``model`` (the copy a context draws) drawing a mesh of at least
     :data:`MIN_TRIANGLES` on a body that never moves (welded to the world, not under a mocap body)."""
     import mujoco
-
-    from libero_data.sim.meshes import drawn_geoms
 
     still = unmoving_geoms(model)
     meshes = drawn_geoms(model) & (model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
@@ -67,6 +68,11 @@ class HiddenGeoms:
         self.geoms = geoms
         # (camera, geom) found visible -> (frames until its next test, the interval it waited)
         self._visible: dict[tuple[int, int], tuple[int, int]] = {}
+
+    @property
+    def found_visible(self) -> set[tuple[int, int]]:
+        """The (camera, geom) pairs last found visible, drawn until their next test."""
+        return set(self._visible)
 
     def draw(self, model: Any, scene: Any, context: Any, viewport: Any, camera_id: int) -> list[int]:
         """``mjr_render`` the scene (its GL context current): without the meshes proved hidden.
@@ -130,8 +136,6 @@ def render_without(scene: Any, context: Any, viewport: Any, rows: list[int]) -> 
 def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:
     """The scene rows among ``rows`` whose enlarged bounding box has a sample passing the depth
     test against the frame just drawn (:func:`box_samples`)."""
-    from libero_data.sim.meshes import box_corners
-
     geoms = [scene.geoms[k] for k in rows]
     corners = box_corners(
         np.array([g.pos for g in geoms], dtype=np.float64),
@@ -153,7 +157,7 @@ def _showing(model: Any, scene: Any, rows: list[int]) -> set[int]:
 
 
 def box_samples(boxes: np.ndarray) -> list[int]:
-    """How many samples of each box (``boxes``: (n, 8, 3) corners, as :func:`.meshes.box_corners`
+    """How many samples of each box (``boxes``: (n, 8, 3) corners, as :func:`.culling.box_corners`
     orders them) pass the depth test against the frame just drawn (matrices and depth test as
     ``mjr_render`` left them), colour and depth writes off: one occlusion query each, all issued
     before any result is read."""
