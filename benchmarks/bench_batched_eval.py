@@ -109,13 +109,13 @@ def _load(folder: Path) -> tuple[Any, Any, Any, Any]:
     import torch
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
-    from libero_bench.rollouts.lerobot_inputs import lerobot_config, serve
+    from libero_bench.rollouts.lerobot_inputs import inputs_from_features, lerobot_config
 
     torch.set_num_threads(1)
     config = lerobot_config(folder)
     policy = get_policy_class(config.type).from_pretrained(str(folder), config=config).eval()
     pre, post = make_pre_post_processors(policy_cfg=config, pretrained_path=str(folder))
-    return policy, pre, post, serve(config.input_features)
+    return policy, pre, post, inputs_from_features(config.input_features)
 
 
 def measure(
@@ -130,9 +130,9 @@ def measure(
     warm = rollout_jobs(task, envs, size, max_steps, work / "warm")
     timed = rollout_jobs(task, rounds * envs, size, max_steps, work / "timed", first=envs)
     if way == "per-worker":
-        from libero_data.runtime.jobs import Executor, JobRunner
+        from libero_data.runtime.jobs import JobPlacement, JobRunner
 
-        with JobRunner(Executor("local", envs), work) as runner:
+        with JobRunner(JobPlacement("local", envs), work) as runner:
             list(runner.run(per_worker_rollout, warm, shared=folder))
             start = time.perf_counter()
             results = [r for _, r in runner.run(per_worker_rollout, timed, shared=folder)]
@@ -142,11 +142,11 @@ def measure(
         copies = max(len(pids), 1)  # one worker: this process holds the copy
     else:
         from libero_bench.rollouts.lerobot_actor import LeRobotActor
-        from libero_bench.rollouts.loop import Execution
-        from libero_data.runtime.jobs import Executor
+        from libero_bench.rollouts.loop import RolloutResources
+        from libero_data.runtime.jobs import JobPlacement
 
         actor = LeRobotActor(folder, "cpu")
-        with Execution(Executor("local", workers), batch_size=envs).open(work) as environments:
+        with RolloutResources(JobPlacement("local", workers), batch_size=envs).open(work) as environments:
             list(environments.run(actor, warm))
             start = time.perf_counter()
             results = [r for _, r in environments.run(actor, timed)]

@@ -82,7 +82,7 @@ def rate(
     thread count in the new workers (None: Mesa's default, one per core)."""
     from libero_bench.evaluation.evaluator import Evaluator
 
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
     policy = _policy(size)
@@ -90,7 +90,7 @@ def rate(
     if render_threads is not None:
         os.environ["LP_NUM_THREADS"] = str(render_threads)  # read by each worker as it starts
     try:
-        with Evaluator(Executor("local", workers), work) as evaluator:
+        with Evaluator(JobPlacement("local", workers), work) as evaluator:
             evaluator.run(
                 policy, rollout_jobs(task_ref, workers, size, max_steps, work / "warm")
             )  # start + warm up
@@ -113,13 +113,13 @@ def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> lis
     """Resident MiB of one worker after each of ``rollouts`` rollouts."""
     from libero_bench.evaluation.evaluator import Evaluator
 
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-mem-"))
     policy = _policy(size)
     trace = []
     try:
-        with Evaluator(Executor("local", 1), work) as evaluator:
+        with Evaluator(JobPlacement("local", 1), work) as evaluator:
             for r in range(rollouts):
                 evaluator.run(policy, rollout_jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
                 (pid,) = evaluator.worker_pids()

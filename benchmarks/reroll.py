@@ -29,14 +29,14 @@ def reroll(
     from libero_bench.data.dataset import DemoDataset
     from libero_bench.data.language import encode_tasks
     from libero_bench.rollouts.jobs import make_job
-    from libero_bench.rollouts.loop import Execution
+    from libero_bench.rollouts.loop import RolloutResources
     from libero_bench.runs.folder import HELDOUT, STORED, RunFolder
     from libero_bench.runs.saved_policy import kept_checkpoint, policy_from_checkpoint
     from libero_bench.runs.summary import load_run
     from libero_bench.runs.training_data import resolve
     from libero_bench.train.plan import resolve_eval_task
     from libero_bench.train.rounds import run_round
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
 
     summary = load_run(run)
     config = summary.config
@@ -81,7 +81,7 @@ def reroll(
                             )
                         )
                 started = time.perf_counter()
-                with Execution(Executor("local", workers)).open(
+                with RolloutResources(JobPlacement("local", workers)).open(
                     Path(tmp) / f"{i}-{position}"
                 ) as environments:
                     results = run_round(environments, policy, jobs)

@@ -80,18 +80,18 @@ def eval_cmd(
     """
     quiet_environment()
     from libero_bench.evaluation.policy_eval import EvalRequest, eval_markdown, evaluate_policy
-    from libero_bench.rollouts.loop import Execution
+    from libero_bench.rollouts.loop import RolloutResources
     from libero_bench.rollouts.policy_kinds import policy_source
     from libero_bench.rollouts.protocol import get_protocol
     from libero_data.errors import InputError
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
     from libero_data.tasks.horizons import parse_step_limit
 
     if not tasks:
         raise InputError("name the tasks to evaluate on", field="tasks")
     if out is None:
         raise InputError("name the evaluation folder", field="out")
-    execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
+    execution = RolloutResources(JobPlacement(executor, workers, ray_address), batch_size, device)
     if benchmark is not None:
         _libero_pro(
             policy_or_server(policy, server),

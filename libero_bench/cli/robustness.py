@@ -88,10 +88,10 @@ def robustness_cmd(
     quiet_environment()
     from libero_bench.robustness.cells import REPORT, SweepRequest
     from libero_bench.robustness.sweep import sweep
-    from libero_bench.rollouts.loop import Execution
+    from libero_bench.rollouts.loop import RolloutResources
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
     from libero_data.tasks.horizons import parse_step_limit
 
     if not tasks:
@@ -115,7 +115,7 @@ def robustness_cmd(
         image_size=image_size,
         replan_steps=replan_steps,
     )
-    execution = Execution(Executor(executor, workers, ray_address), batch_size, device)
+    execution = RolloutResources(JobPlacement(executor, workers, ray_address), batch_size, device)
     from libero_bench.rollouts.policy_kinds import check_policy
 
     check_policy(reference, image_size, replan_steps)  # one sentence before any output

@@ -112,11 +112,11 @@ def run_cmd(
     from libero_bench.train.plan import RunOptions, RunRequest, check_device, check_out_folder, plan_run
     from libero_bench.train.presets import get_preset
     from libero_bench.train.trainer import Trainer
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
     from libero_data.runtime.memory import limit_malloc_arenas
 
     limit_malloc_arenas()  # rollouts run in this process with --workers 1
-    runner = Executor(executor, workers, ray_address)  # checked before any work
+    runner = JobPlacement(executor, workers, ray_address)  # checked before any work
     quality = [f"eval_render_quality={render_quality}"] if render_quality is not None else []
     chosen = get_preset(preset).with_overrides([*(overrides or []), *quality])
     check_device(device)

@@ -26,7 +26,7 @@ import numpy as np
 
 from libero_bench.evaluation.eval_report import chart, eval_markdown, summarize_eval
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult, make_job
-from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.loop import RolloutResources
 from libero_bench.rollouts.policy_kinds import RUN, SERVER, PolicySource, policy_source, shown_from
 from libero_bench.rollouts.protocol import LIBERO_BENCH, PROTOCOLS, Protocol, get_protocol
 from libero_bench.rollouts.session import Group, RolloutSession, rollout_record
@@ -221,7 +221,7 @@ def evaluate_policy(
     request: EvalRequest,
     out: str | Path,
     *,
-    execution: Execution | None = None,
+    execution: RolloutResources | None = None,
     on_result: Callable[[RolloutResult], None] | None = None,
     on_total: Callable[[int], None] | None = None,
     heldout_seeds: Mapping[str, Sequence[int]] | None = None,
@@ -238,7 +238,7 @@ def evaluate_policy(
     ``step_limits`` (task name -> steps) replaces a task's step limit (a variant takes its source's);
     ``source`` is the request's policy when the caller has opened it already (``policy_source``)."""
     protocol = PROTOCOLS[request.protocol]
-    execution = execution or Execution()
+    execution = execution or RolloutResources()
     source = source or policy_source(
         request.policy, request.image_size, request.replan_steps, protocol.request
     )

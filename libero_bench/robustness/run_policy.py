@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from libero_bench.robustness.cells import Cell, SweepRequest, heldout_seeds
-from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.loop import RolloutResources
 from libero_data.errors import RunError
 from libero_data.pipeline.request import state_width
 
@@ -28,7 +28,7 @@ def run_outcomes(
     request: SweepRequest,
     cells: list[Cell],
     out: Path,
-    execution: Execution,
+    execution: RolloutResources,
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
     keep_work: bool = False,

@@ -20,7 +20,7 @@ from libero_bench.robustness.cells import (
     table,
     write_sweep_report,
 )
-from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.loop import RolloutResources
 from libero_bench.rollouts.policy_kinds import PolicySource
 
 
@@ -29,7 +29,7 @@ def sweep(
     request: SweepRequest,
     out: str | Path,
     *,
-    execution: Execution | None = None,
+    execution: RolloutResources | None = None,
     on_result: Callable[[Any], None] | None = None,
     on_total: Callable[[int], None] | None = None,
     keep_work: bool = False,
@@ -39,7 +39,7 @@ def sweep(
     from libero_bench.rollouts.policy_kinds import RUN, check_policy, is_server, shown_from
     from libero_data.runtime.versions import versions
 
-    execution = execution or Execution()
+    execution = execution or RolloutResources()
     out = Path(out).resolve()
     ref = str(policy) if is_server(str(policy)) else str(Path(policy).resolve())
     source = check_policy(ref, request.image_size, request.replan_steps)  # before anything is written
@@ -77,7 +77,7 @@ def _lerobot_outcomes(
     request: SweepRequest,
     cells: list[Cell],
     out: Path,
-    execution: Execution,
+    execution: RolloutResources,
     on_result: Callable[[Any], None] | None,
     on_total: Callable[[int], None] | None,
     keep_work: bool,

@@ -19,7 +19,7 @@ end their episodes at different steps:
 - ACT's temporal ensembling needs a forward pass per step and environment, outside of this scheme:
   refused in one sentence.
 
-Observations are served from the policy's declared inputs (:func:`libero_bench.rollouts.lerobot_inputs.serve`).
+Observations are served from the policy's declared inputs (:func:`libero_bench.rollouts.lerobot_inputs.inputs_from_features`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,13 @@ from libero_bench.rollouts.actors import (
     chunked_answers,
     forward_threads,
 )
-from libero_bench.rollouts.lerobot_inputs import SIM_STATE, SIM_STATE_DIM, Inputs, lerobot_config, serve
+from libero_bench.rollouts.lerobot_inputs import (
+    SIM_STATE,
+    SIM_STATE_DIM,
+    Inputs,
+    inputs_from_features,
+    lerobot_config,
+)
 from libero_data.errors import InputError
 from libero_data.seeding import policy_noise_seed
 
@@ -111,7 +117,7 @@ class LeRobotActor(BatchActor):
                 "set to null (n_action_steps of each chunk are executed instead)",
                 field="policy",
             )
-        self.inputs = serve(config.input_features, f"the {config.type} policy at {path}")
+        self.inputs = inputs_from_features(config.input_features, f"the {config.type} policy at {path}")
         config.device = device
         self.device = torch.device(device)
         self.config = config

@@ -57,8 +57,8 @@ class Inputs:
         return max((max(h, w) for _, h, w in self.cameras.values()), default=128)
 
 
-def serve(input_features: Mapping[str, Any], policy: str = "the policy") -> Inputs:
-    """How to serve every declared input (``{name: PolicyFeature}``); :class:`InputError` naming
+def inputs_from_features(input_features: Mapping[str, Any], policy: str = "the policy") -> Inputs:
+    """How to make every declared input (``{name: PolicyFeature}``); :class:`InputError` naming
     the first one that cannot be served."""
     cameras: dict[str, tuple[str, int, int]] = {}
     states: dict[str, tuple[str, int]] = {}

@@ -1,8 +1,8 @@
 """The driver's loop: jobs onto environment slots, one batched policy call per control step.
 
-:class:`Environments` holds ``batch_size`` environment slots spread over the workers of an
+:class:`EnvironmentSlots` holds ``batch_size`` environment slots spread over the workers of an
 :class:`~libero_data.runtime.actors.ActorPool` (worker processes, Ray actors, or this process);
-:meth:`Environments.run` rolls a :class:`~libero_bench.rollouts.actors.BatchActor` out on a list of
+:meth:`EnvironmentSlots.run` rolls a :class:`~libero_bench.rollouts.actors.BatchActor` out on a list of
 jobs. Each control step the actor is asked once, for every running slot; then every worker steps
 its slots and starts the next jobs on the free ones, all workers at once. An episode that ends
 frees its slot for the next job while the others go on.
@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from libero_bench.rollouts.actors import Start
-from libero_data.runtime.jobs import Executor
+from libero_data.runtime.jobs import JobPlacement
 
 if TYPE_CHECKING:
     from libero_bench.rollouts.actors import BatchActor
@@ -36,13 +36,13 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class Execution:
+class RolloutResources:
     """How an evaluation runs: where the environments step (an
-    :class:`~libero_data.runtime.jobs.Executor`: this process, ``workers`` worker processes, or
+    :class:`~libero_data.runtime.jobs.JobPlacement`: this process, ``workers`` worker processes, or
     Ray actors), ``batch_size`` environments at once (default: one per worker), the policy on
     ``device`` (default: cuda where available, then mps, else cpu)."""
 
-    executor: Executor = field(default_factory=Executor)
+    executor: JobPlacement = field(default_factory=JobPlacement)
     batch_size: int | None = None
     device: str | None = None
 
@@ -64,16 +64,16 @@ class Execution:
 
         return self.device or default_device()
 
-    def open(self, root: Path) -> Environments:
+    def open(self, root: Path) -> EnvironmentSlots:
         """The environments, under ``root`` (a context manager)."""
-        return Environments(self.executor, root, self.environments)
+        return EnvironmentSlots(self.executor, root, self.environments)
 
 
-class Environments:
+class EnvironmentSlots:
     """``batch_size`` environment slots in the workers of ``executor`` (a context manager; the
     workers and their environments live until it closes, across calls of :meth:`run`)."""
 
-    def __init__(self, executor: Executor, root: Path, batch_size: int) -> None:
+    def __init__(self, executor: JobPlacement, root: Path, batch_size: int) -> None:
         if batch_size < 1:
             raise ValueError(f"batch_size must be at least 1, got {batch_size}")
         # never more local worker processes than environments
@@ -86,7 +86,7 @@ class Environments:
         #: The driver's seconds: starting the workers, in the policy, waiting for the workers.
         self.timing = {"start_s": 0.0, "policy_s": 0.0, "workers_s": 0.0}
 
-    def __enter__(self) -> Environments:
+    def __enter__(self) -> EnvironmentSlots:
         return self
 
     def __exit__(self, kind: object, error: object, tb: object) -> None:

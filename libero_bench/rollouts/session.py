@@ -28,7 +28,7 @@ from libero_bench.runs.folder import RunFolder
 if TYPE_CHECKING:
     from libero_bench.rollouts.actors import BatchActor
     from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
-    from libero_bench.rollouts.loop import Environments, Execution
+    from libero_bench.rollouts.loop import EnvironmentSlots, RolloutResources
 
 #: A group of rollouts and what opens the actor that acts for them (on the device given).
 Group = tuple[Callable[[str], "BatchActor"], Sequence["RolloutJob"]]
@@ -50,7 +50,7 @@ def rollout_record(job: RolloutJob, result: RolloutResult, **extra: Any) -> dict
 
 
 def roll_out(
-    environments: Environments,
+    environments: EnvironmentSlots,
     actor: BatchActor,
     jobs: Sequence[RolloutJob],
     on_result: Callable[[RolloutResult], None] | None = None,
@@ -104,7 +104,7 @@ class RolloutSession:
 
     def run(
         self,
-        execution: Execution,
+        execution: RolloutResources,
         groups: Sequence[Group],
         record: Callable[[RolloutJob, RolloutResult], dict[str, Any]],
         on_result: Callable[[RolloutResult], None] | None = None,

@@ -19,7 +19,7 @@ from libero_bench.train.presets import TrainPreset
 from libero_data.config import Config
 from libero_data.errors import FolderError, InputError, MissingFileError, UnknownNameError
 from libero_data.numerics import machine_fingerprint
-from libero_data.runtime.jobs import Executor
+from libero_data.runtime.jobs import JobPlacement
 from libero_data.sim.arm import ARM_INIT_NOISE
 
 if TYPE_CHECKING:
@@ -53,8 +53,8 @@ class RunOptions(Config):
     """How to run it (free to change when resuming)."""
 
     device: str = "cpu"
-    executor: Executor = field(
-        default_factory=Executor
+    executor: JobPlacement = field(
+        default_factory=JobPlacement
     )  # where the evaluation rollouts step (libero_data.runtime.jobs)
     loader_workers: int = 0  # DataLoader worker processes (PyTorch's meaning: 0 is this process)
     threads: int = 1  # torch threads of the training process (last-bit differences follow it)

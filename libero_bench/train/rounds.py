@@ -24,14 +24,14 @@ if TYPE_CHECKING:
     from libero_bench.algos import Algo
     from libero_bench.policies.base import Policy
     from libero_bench.rollouts.jobs import EvalTask, RolloutJob, RolloutResult
-    from libero_bench.rollouts.loop import Environments
+    from libero_bench.rollouts.loop import EnvironmentSlots
     from libero_bench.train.observer import RunObserver
 
 logger = logging.getLogger(__name__)
 
 
 def run_round(
-    environments: Environments,
+    environments: EnvironmentSlots,
     policy: Policy,
     jobs: Sequence[RolloutJob],
     on_result: Callable[[RolloutResult], None] | None = None,
@@ -52,7 +52,7 @@ class EvaluationRounds:
         self.plan = plan
         self.folder = folder
         self.observer = observer
-        self.environments: Environments | None = None  # set while the run's environments are open
+        self.environments: EnvironmentSlots | None = None  # set while the run's environments are open
         self._eval_tasks: list[EvalTask] | None = None
 
     def eval_tasks(self) -> list[EvalTask]:

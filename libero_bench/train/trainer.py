@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.loop import RolloutResources
 from libero_bench.runs.folder import AFTER, LEARNING, PRUNED, STARTS, STORED, RunFolder, RunResults
 from libero_bench.runs.training_data import TRAINING_DATA, with_relative_paths, write_training_data
 from libero_bench.train.checkpoints import (
@@ -200,7 +200,7 @@ class Trainer:
         algo = self._new_algo()
         results = self.prepare()
         self.folder.work.mkdir(parents=True, exist_ok=True)
-        with Execution(self.options.executor).open(self.folder.root) as environments:
+        with RolloutResources(self.options.executor).open(self.folder.root) as environments:
             self.rounds.environments = environments
             try:
                 if self.plan.needs_all_tasks:

@@ -201,12 +201,12 @@ def generate_cmd(
     """
     from libero_data.pipeline.request import resolve_request
     from libero_data.record.features import PROFILE_IMAGE_SIZE
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
     from libero_data.runtime.memory import limit_malloc_arenas
 
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
     limit_malloc_arenas()  # with --workers 1 this process renders and writes every episode
-    runner = Executor(executor, workers, ray_address)  # checked before any work
+    runner = JobPlacement(executor, workers, ray_address)  # checked before any work
     task_refs = split_list(tasks)
     _check_combination(suite, task_refs, procedural, variants_of, scene, template, kinds or level, tasks_only)
     if procedural is not None or variants_of is not None:

@@ -67,10 +67,10 @@ def import_cmd(
 
     from libero_data.pipeline.importer import plan_import, run_import
     from libero_data.record.features import CAMERAS, PROFILE_IMAGE_SIZE
-    from libero_data.runtime.jobs import Executor
+    from libero_data.runtime.jobs import JobPlacement
 
     os.environ.setdefault("SVT_LOG", "1")
-    Executor(executor, workers, ray_address)  # checked before any work
+    JobPlacement(executor, workers, ray_address)  # checked before any work
     size = image_size or PROFILE_IMAGE_SIZE.get(features, 128)
     chosen = tuple(split_list(cameras)) or CAMERAS
     request, by_task = plan_import(  # a file that is not LIBERO's is its sentence alone

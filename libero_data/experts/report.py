@@ -20,7 +20,7 @@ from libero_data.errors import FolderError, SettingsChanged
 from libero_data.experts.expert import ExpertConfig
 from libero_data.runtime.files import Journal
 from libero_data.runtime.folder import changed_keys
-from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
+from libero_data.runtime.jobs import JobPlacement, JobRunner, WorkerContext
 from libero_data.seeding import episode_seeds
 
 __all__ = ["ReportJournal", "TaskResult", "evaluate_task", "failure_reason", "run_report"]
@@ -203,7 +203,7 @@ def run_report(
     config = config or ExpertConfig()
     jobs = [_TaskJob(ref, inits, seed, config, fingerprint or expert_code()) for ref in refs]
     results: dict[str, TaskResult] = {}
-    with JobRunner(Executor("local", workers)) as runner:
+    with JobRunner(JobPlacement("local", workers)) as runner:
         for i, result in runner.run(_measure, jobs):
             results[refs[i]] = result
             if on_task:

@@ -33,7 +33,7 @@ from libero_data.pipeline.request import (
 )
 from libero_data.runtime.files import load_record, write_json
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
-from libero_data.runtime.jobs import Executor, JobRunner
+from libero_data.runtime.jobs import JobPlacement, JobRunner
 
 __all__ = ["GenerateRequest", "Progress", "PublishClock", "generate", "resolve_request"]
 
@@ -266,7 +266,7 @@ def generate(
     """
     from libero_data.pipeline.publish import recover, unstamp
 
-    runner_executor = Executor(executor, workers, ray_address)
+    runner_executor = JobPlacement(executor, workers, ray_address)
     out = Path(out).resolve()
     done = check_output(request, out)
     if done is not None:

@@ -28,7 +28,7 @@ from libero_data.config import Config
 from libero_data.errors import SettingsChanged
 from libero_data.runtime.files import save_npz, write_json, write_text
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
-from libero_data.runtime.jobs import Executor, JobRunner, WorkerContext
+from libero_data.runtime.jobs import JobPlacement, JobRunner, WorkerContext
 from libero_data.scenes.sampler import SampledTask, sample_tasks
 from libero_data.seeding import CANDIDATE_EXPERT, candidate_seed
 from libero_data.tasks import SUITE_MANIFEST
@@ -129,7 +129,7 @@ def make_suite(
     *,
     workers: int = 1,
     on_verdict: Callable[[Verdict], None] | None = None,
-    executor: Executor | None = None,
+    executor: JobPlacement | None = None,
 ) -> list[Verdict]:
     """Sample, check and write the suite into ``out``; resumes an interrupted run.
 
@@ -165,7 +165,7 @@ def make_suite(
     for v in verdicts.values():
         if on_verdict:
             on_verdict(v)
-    with JobRunner(executor or Executor("local", workers), folder.root) as runner:
+    with JobRunner(executor or JobPlacement("local", workers), folder.root) as runner:
         for j, (verdict, found) in runner.run(_check, jobs):
             i = jobs[j].index
             task = candidates[i][0]

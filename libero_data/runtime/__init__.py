@@ -7,12 +7,12 @@ Nothing here knows about tasks, datasets or policies; ``pipeline``, ``experts.re
 """
 
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
-from libero_data.runtime.jobs import Executor, JobRunner, WorkerCache, WorkerContext
+from libero_data.runtime.jobs import JobPlacement, JobRunner, WorkerCache, WorkerContext
 from libero_data.runtime.versions import versions
 
 __all__ = [
     "DATASET_WORK",
-    "Executor",
+    "JobPlacement",
     "JobRunner",
     "WorkFolder",
     "WorkerCache",

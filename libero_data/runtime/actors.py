@@ -32,7 +32,7 @@ from typing import Any
 
 from libero_data.errors import ExecutorError
 from libero_data.runtime.files import pack, unpack
-from libero_data.runtime.jobs import Executor, WorkerCache, WorkerContext
+from libero_data.runtime.jobs import JobPlacement, WorkerCache, WorkerContext
 
 Factory = Callable[[WorkerContext], Any]
 Call = tuple[str, tuple[Any, ...]]
@@ -119,7 +119,7 @@ class ActorPool:
 
     def __init__(
         self,
-        executor: Executor,
+        executor: JobPlacement,
         root: Path,
         factory: Factory,
         *,

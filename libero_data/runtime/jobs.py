@@ -53,7 +53,7 @@ EXECUTORS = ("local", "ray")
 
 
 @dataclass(frozen=True)
-class Executor:
+class JobPlacement:
     """Where jobs run: ``local`` in ``workers`` processes, or ``ray`` with ``workers`` CPUs of a
     Ray instance started here (or of the cluster at ``ray_address``).
 
@@ -83,8 +83,8 @@ class Executor:
         """Whether the work runs in this process (local, one worker)."""
         return self.kind == "local" and self.workers == 1
 
-    def with_workers(self, workers: int) -> Executor:
-        return Executor(self.kind, workers, self.ray_address)
+    def with_workers(self, workers: int) -> JobPlacement:
+        return JobPlacement(self.kind, workers, self.ray_address)
 
     def describe(self) -> str:
         if self.kind == "ray":
@@ -241,7 +241,7 @@ def _ray_call(
 
 # -- in the driver -------------------------------------------------------------------------------------
 class JobRunner:
-    """Runs jobs with an :class:`Executor`; outputs go under ``root`` (jobs that write nothing
+    """Runs jobs with an :class:`JobPlacement`; outputs go under ``root`` (jobs that write nothing
     need none). A context manager: worker
     processes (or the Ray instance started here) live until it closes.
 
@@ -250,7 +250,7 @@ class JobRunner:
     """
 
     def __init__(
-        self, executor: Executor, root: Path | None = None, *, setup: Callable[[], None] | None = None
+        self, executor: JobPlacement, root: Path | None = None, *, setup: Callable[[], None] | None = None
     ) -> None:
         self.executor = executor
         self.root = Path.cwd() if root is None else Path(root)

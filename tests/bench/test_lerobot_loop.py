@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from libero_bench.rollouts.lerobot_inputs import serve
+from libero_bench.rollouts.lerobot_inputs import inputs_from_features
 from libero_data.errors import InputError
 
 VENV_BIN = Path(sys.executable).parent
@@ -25,7 +25,7 @@ def _feature(kind: str, *shape: int) -> SimpleNamespace:
 
 
 def test_inputs_are_served_under_either_camera_naming_and_an_unservable_one_is_named() -> None:
-    inputs = serve(
+    inputs = inputs_from_features(
         {
             "observation.images.image": _feature("VISUAL", 3, 256, 256),
             "observation.images.image2": _feature("VISUAL", 3, 128, 128),
@@ -38,18 +38,18 @@ def test_inputs_are_served_under_either_camera_naming_and_an_unservable_one_is_n
         "observation.images.image2": ("eye_in_hand", 128, 128),
     }
     assert inputs.states["observation.state"] == ("state", 8) and inputs.render_size == 256
-    assert serve({"observation.images.wrist_image": _feature("VISUAL", 3, 64, 64)}).cameras == {
-        "observation.images.wrist_image": ("eye_in_hand", 64, 64)
-    }
+    assert inputs_from_features(
+        {"observation.images.wrist_image": _feature("VISUAL", 3, 64, 64)}
+    ).cameras == {"observation.images.wrist_image": ("eye_in_hand", 64, 64)}
     with pytest.raises(InputError, match=r"reads observation\.environment_state of shape \[16\]"):
-        serve(
+        inputs_from_features(
             {
                 "observation.images.image": _feature("VISUAL", 3, 64, 64),
                 "observation.environment_state": _feature("ENV", 16),
             }
         )
     with pytest.raises(InputError, match=r"reads the camera observation\.images\.depth"):
-        serve({"observation.images.depth": _feature("VISUAL", 3, 64, 64)})
+        inputs_from_features({"observation.images.depth": _feature("VISUAL", 3, 64, 64)})
 
 
 def _run(*command: str, timeout: float = 900, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:

@@ -22,7 +22,7 @@ import pytest
 from lerobot_policies import save_policy
 
 from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy
-from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.loop import RolloutResources
 from libero_data.errors import PolicyServerError
 
 pytestmark = pytest.mark.sim
@@ -97,11 +97,11 @@ def test_a_served_policy_is_evaluated_as_a_local_one_and_a_dying_server_leaves_a
     url = f"ws://127.0.0.1:{port}"
     request: dict[str, Any] = dict(tasks=(TASK,), stored=1, heldout=1, max_steps=4, settle=2)
     local = evaluate_policy(
-        EvalRequest(str(policy), **request), tmp_path / "local", execution=Execution(batch_size=2)
+        EvalRequest(str(policy), **request), tmp_path / "local", execution=RolloutResources(batch_size=2)
     )
     with served(policy, port):
         remote = evaluate_policy(
-            EvalRequest(url, **request), tmp_path / "remote", execution=Execution(batch_size=2)
+            EvalRequest(url, **request), tmp_path / "remote", execution=RolloutResources(batch_size=2)
         )
     # The same starts, outcomes and actions as the local evaluation (a stored and a held-out start).
     assert outcomes(tmp_path / "remote") == outcomes(tmp_path / "local")
@@ -115,7 +115,7 @@ def test_a_served_policy_is_evaluated_as_a_local_one_and_a_dying_server_leaves_a
     # A finished folder holds no work files; the same evaluation again only rewrites the report.
     assert not list((tmp_path / "local").rglob(".*"))
     again = evaluate_policy(
-        EvalRequest(str(policy), **request), tmp_path / "local", execution=Execution(batch_size=2)
+        EvalRequest(str(policy), **request), tmp_path / "local", execution=RolloutResources(batch_size=2)
     )
     assert again["all"] == local["all"]
     # 4 steps solve nothing: every rollout is a failure cut by the step limit, and the report says so.
@@ -134,11 +134,11 @@ def test_a_served_policy_is_evaluated_as_a_local_one_and_a_dying_server_leaves_a
             server.wait(timeout=30)
 
         with pytest.raises(PolicyServerError, match=rf"policy server at {url}") as died:
-            evaluate_policy(more, dying, execution=Execution(batch_size=1), on_result=kill_after_first)
+            evaluate_policy(more, dying, execution=RolloutResources(batch_size=1), on_result=kill_after_first)
     assert "\n" not in str(died.value)
     assert len(json.loads((dying / "results.json").read_text())["rollouts"]) == 1
     with served(policy, port):
-        evaluate_policy(more, dying, execution=Execution(batch_size=1))
+        evaluate_policy(more, dying, execution=RolloutResources(batch_size=1))
     saved = json.loads((dying / "results.json").read_text())
     assert saved["complete"] and len(saved["rollouts"]) == 3
     assert [s["rollouts"] for s in saved["sessions"]] == [1, 2]  # the finished one was not run again

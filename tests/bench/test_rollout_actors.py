@@ -21,7 +21,7 @@ from lerobot_policies import save_policy
 
 from libero_bench.rollouts.actors import ActionQueues, Start
 from libero_bench.rollouts.lerobot_actor import LeRobotActor, raw_batch
-from libero_bench.rollouts.lerobot_inputs import lerobot_config, serve
+from libero_bench.rollouts.lerobot_inputs import inputs_from_features, lerobot_config
 from libero_bench.rollouts.remote import RemoteActor, connect
 from libero_bench.rollouts.server import PolicyServer
 from libero_bench.rollouts.wire import pack, unpack
@@ -46,7 +46,7 @@ def _alone(folder: Path, key: str, observations: list[dict[str, np.ndarray]]) ->
     config = lerobot_config(folder)
     policy = get_policy_class(config.type).from_pretrained(str(folder), config=config).eval()
     pre, post = make_pre_post_processors(policy_cfg=config, pretrained_path=str(folder))
-    inputs = serve(config.input_features)
+    inputs = inputs_from_features(config.input_features)
     policy.reset()
     actions = []
     for t, obs in enumerate(observations):

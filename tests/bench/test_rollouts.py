@@ -14,7 +14,7 @@ import torch
 from libero_bench.policies import make_policy
 from libero_bench.rollouts.actors import Observations, PolicyActor
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, make_job
-from libero_bench.rollouts.loop import Execution
+from libero_bench.rollouts.loop import RolloutResources
 from libero_bench.runs.folder import HELDOUT, STORED
 from libero_data.record.features import OBS_SIM_STATE
 from libero_data.seeding import heldout_starts
@@ -84,7 +84,7 @@ def test_one_batched_pass_per_step_and_the_same_starts_with_batch_sizes_1_and_3(
         root = tmp_path / f"b{batch}"
         jobs = jobs_of(root)
         actor = CountingActor(policy)
-        with Execution(batch_size=batch).open(root) as environments:
+        with RolloutResources(batch_size=batch).open(root) as environments:
             results = dict(environments.run(actor, jobs))
         assert sorted(results) == [0, 1, 2, 3] and all(r.steps == STEPS for r in results.values())
         # One call, one forward pass, per control step, over every environment then running.

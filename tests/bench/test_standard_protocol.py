@@ -18,8 +18,8 @@ from lerobot_policies import save_policy
 
 from benchmarks.openpi_loop import Client, RecordingServer, openpi_resize, run_openpi_loop
 from libero_bench.evaluation.policy_eval import EvalRequest, evaluate_policy
-from libero_bench.rollouts.loop import Execution
-from libero_data.runtime.jobs import Executor
+from libero_bench.rollouts.loop import RolloutResources
+from libero_data.runtime.jobs import JobPlacement
 from libero_data.tasks import get_task
 
 OPENPI_KEYS = {"observation/image", "observation/wrist_image", "observation/state", "prompt"}
@@ -73,7 +73,7 @@ def test_the_standard_protocol_sends_what_openpis_loop_sends(tmp_path: Path) -> 
         server.requests.clear()
         server.controls.clear()
         request = EvalRequest(server.url, (TASK,), protocol="standard", trials=episodes, max_steps=steps)
-        evaluate_policy(request, tmp_path / "eval", execution=Execution(Executor("local", 2)))
+        evaluate_policy(request, tmp_path / "eval", execution=RolloutResources(JobPlacement("local", 2)))
         ours, our_controls = dict(server.requests), list(server.controls)
     assert sorted(ours) == sorted(theirs) == list(range(episodes))
     for episode in range(episodes):
@@ -166,7 +166,7 @@ def test_openpis_loop_against_libero_bench_serve_acts_as_the_standard_protocol_l
     # Each episode framed by openpi's control messages, acknowledged as openpi's server does.
     assert [e["acks"] for e in served] == [[{"__ack__": "episode_start"}, {"__ack__": "episode_end"}]] * 2
     local = EvalRequest(str(policy), ("libero_object/0",), protocol="standard", trials=2, max_steps=steps)
-    evaluate_policy(local, tmp_path / "local", execution=Execution(batch_size=2))
+    evaluate_policy(local, tmp_path / "local", execution=RolloutResources(batch_size=2))
     here = _executed(tmp_path / "local")
     for episode, run in enumerate(served):
         assert len(run["actions"]) == steps

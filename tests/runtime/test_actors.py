@@ -9,13 +9,13 @@ import pytest
 
 from libero_data.errors import ExecutorError
 from libero_data.runtime.actors import ActorPool, RemoteTraceback
-from libero_data.runtime.jobs import Executor
+from libero_data.runtime.jobs import JobPlacement
 from tests.runtime.jobs_for_tests import make_counter
 
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_actors_keep_their_state_between_calls(workers: int, tmp_path: Path) -> None:
-    with ActorPool(Executor("local", workers), tmp_path, make_counter) as pool:
+    with ActorPool(JobPlacement("local", workers), tmp_path, make_counter) as pool:
         assert pool.size == workers  # one: this process
         everyone = range(pool.size)
         first = pool.call({i: ("add", (i + 1,)) for i in everyone})
@@ -30,7 +30,7 @@ def test_actors_keep_their_state_between_calls(workers: int, tmp_path: Path) -> 
 
 
 def test_an_actors_exception_is_raised_in_the_driver_with_its_traceback(tmp_path: Path) -> None:
-    with ActorPool(Executor("local", 1), tmp_path, make_counter) as pool:
+    with ActorPool(JobPlacement("local", 1), tmp_path, make_counter) as pool:
         with pytest.raises(ArithmeticError, match="asked to fail") as raised:
             pool.call({0: ("fail", ())})
         assert isinstance(raised.value.__cause__, RemoteTraceback)
@@ -41,7 +41,7 @@ def test_an_actors_exception_is_raised_in_the_driver_with_its_traceback(tmp_path
 def test_a_worker_that_dies_is_named(tmp_path: Path) -> None:
     died = r"simulation worker 1 \(process \d+\) died with exit code 3"
     with (
-        ActorPool(Executor("local", 2), tmp_path, make_counter) as pool,
+        ActorPool(JobPlacement("local", 2), tmp_path, make_counter) as pool,
         pytest.raises(ExecutorError, match=died),
     ):
         pool.call({0: ("add", (1,)), 1: ("die", ())})
@@ -49,7 +49,7 @@ def test_a_worker_that_dies_is_named(tmp_path: Path) -> None:
 
 @pytest.mark.xdist_group("ray")
 def test_ray_actors_keep_state_and_send_their_files_back(tmp_path: Path) -> None:
-    with ActorPool(Executor("ray", 2), tmp_path, make_counter) as pool:
+    with ActorPool(JobPlacement("ray", 2), tmp_path, make_counter) as pool:
         assert pool.size == 2
         pool.call({0: ("add", (1,)), 1: ("add", (2,))})
         again = pool.call({0: ("add", (1,)), 1: ("add", (2,))})

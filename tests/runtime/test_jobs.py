@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from libero_data.errors import ExecutorError
-from libero_data.runtime.jobs import Executor, JobRunner, WorkerCache
+from libero_data.runtime.jobs import JobPlacement, JobRunner, WorkerCache
 from tests.runtime.jobs_for_tests import count_and_report, fail_on_three
 
 
@@ -17,7 +17,7 @@ def test_results_events_files_and_caches(workers: int, tmp_path: Path) -> None:
     shared.write_text("x" * 10)
     events: list[tuple[int, int]] = []
     seen: dict[int, dict[str, int]] = {}
-    with JobRunner(Executor("local", workers), tmp_path) as runner:
+    with JobRunner(JobPlacement("local", workers), tmp_path) as runner:
         for i, result in runner.run(count_and_report, [5, 1, 2, 3], shared=shared, on_event=events.append):
             # Every event of a job has reached the driver before its result.
             assert sum(1 for n, _ in events if n == result["n"]) == result["n"]
@@ -35,12 +35,15 @@ def test_results_events_files_and_caches(workers: int, tmp_path: Path) -> None:
 
 
 def test_a_failing_job_raises_in_the_driver(tmp_path: Path) -> None:
-    with JobRunner(Executor("local", 2), tmp_path) as runner, pytest.raises(ArithmeticError, match="job 3"):
+    with (
+        JobRunner(JobPlacement("local", 2), tmp_path) as runner,
+        pytest.raises(ArithmeticError, match="job 3"),
+    ):
         list(runner.run(fail_on_three, [1, 2, 3, 4]))
 
 
 def test_runs_in_one_runner_keep_their_workers(tmp_path: Path) -> None:
-    with JobRunner(Executor("local", 1), tmp_path) as runner:
+    with JobRunner(JobPlacement("local", 1), tmp_path) as runner:
         first = [r for _, r in runner.run(count_and_report, [1, 2])]
         second = [r for _, r in runner.run(count_and_report, [3])]
     assert {r["pid"] for r in first} == {r["pid"] for r in second}
@@ -49,16 +52,16 @@ def test_runs_in_one_runner_keep_their_workers(tmp_path: Path) -> None:
 
 def test_executor_choices_are_checked() -> None:
     with pytest.raises(ExecutorError, match="choose local or ray") as bad:
-        Executor("dask", 2)
+        JobPlacement("dask", 2)
     assert bad.value.field == "executor"
     with pytest.raises(ExecutorError) as lonely:
-        Executor("local", 2, ray_address="auto")
+        JobPlacement("local", 2, ray_address="auto")
     assert lonely.value.field == "ray_address"
     with pytest.raises(ExecutorError, match="1 \\(this process\\) or more") as none:
-        Executor("local", 0)
+        JobPlacement("local", 0)
     assert none.value.field == "workers"
-    assert Executor("local", 1).in_process and Executor().in_process  # one process: this one
-    assert not Executor("local", 3).in_process and not Executor("ray", 1).in_process
+    assert JobPlacement("local", 1).in_process and JobPlacement().in_process  # one process: this one
+    assert not JobPlacement("local", 3).in_process and not JobPlacement("ray", 1).in_process
 
 
 def test_worker_cache_rebuilds_on_a_new_key_and_closes_the_old_value() -> None:

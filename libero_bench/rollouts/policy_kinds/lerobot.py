@@ -19,11 +19,11 @@ from libero_bench.rollouts.policy_kinds import (
 def lerobot_source(policy: str, options: SourceOptions) -> PolicySource:
     """The source of the LeRobot policy folder ``policy``."""
     from libero_bench.rollouts.lerobot_actor import LeRobotActor
-    from libero_bench.rollouts.lerobot_inputs import lerobot_config, serve
+    from libero_bench.rollouts.lerobot_inputs import inputs_from_features, lerobot_config
 
     folder = Path(policy).resolve()
     config = lerobot_config(folder)
-    inputs = serve(config.input_features, f"the {config.type} policy at {folder}")
+    inputs = inputs_from_features(config.input_features, f"the {config.type} policy at {folder}")
     cameras = {camera for camera, _h, _w in inputs.cameras.values()}
     return PolicySource(
         str(folder),
