@@ -1,6 +1,6 @@
 """Evaluation throughput: rollouts per minute with 1 and 2 worker processes, worker memory.
 
-``libero_bench.evaluation.evaluator.Evaluator`` runs ``--rollouts`` rollouts of a smoke-size ResNet-T
+``libero_bench.train.rounds.run_round`` on a run's open environment slots runs ``--rollouts`` rollouts of a smoke-size ResNet-T
 policy (untrained: its rollouts run to ``--max-steps``, the worst case) on one task, both
 cameras at ``--size``, each rollout written as a LeRobot shard, MCAP log and Rerun
 recording like in a real run. Measured with 1 and with 2 worker processes (the pool is
@@ -80,8 +80,8 @@ def rate(
 ) -> tuple[float, list[float]]:
     """(rollouts per minute, peak MiB of each worker); ``render_threads`` sets llvmpipe's
     thread count in the new workers (None: Mesa's default, one per core)."""
-    from libero_bench.evaluation.evaluator import Evaluator
-
+    from libero_bench.rollouts.loop import EnvironmentSlots
+    from libero_bench.train.rounds import run_round
     from libero_data.runtime.jobs import JobPlacement
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-"))
@@ -90,16 +90,18 @@ def rate(
     if render_threads is not None:
         os.environ["LP_NUM_THREADS"] = str(render_threads)  # read by each worker as it starts
     try:
-        with Evaluator(JobPlacement("local", workers), work) as evaluator:
-            evaluator.run(
-                policy, rollout_jobs(task_ref, workers, size, max_steps, work / "warm")
-            )  # start + warm up
+        with EnvironmentSlots(JobPlacement("local", workers), work, workers) as slots:
+            run_round(
+                slots, policy, rollout_jobs(task_ref, workers, size, max_steps, work / "warm")
+            )  # warm up
             start = time.perf_counter()
-            evaluator.run(
-                policy, rollout_jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers)
+            run_round(
+                slots,
+                policy,
+                rollout_jobs(task_ref, rollouts, size, max_steps, work / "timed", first=workers),
             )
             minutes = (time.perf_counter() - start) / 60
-            pids = evaluator.worker_pids()
+            pids = slots.worker_pids()
             peaks = [status_mib(pid, "VmHWM") for pid in pids]
         return rollouts / minutes, peaks
     finally:
@@ -111,18 +113,18 @@ def rate(
 
 def memory_trace(task_ref: str, rollouts: int, size: int, max_steps: int) -> list[float]:
     """Resident MiB of one worker after each of ``rollouts`` rollouts."""
-    from libero_bench.evaluation.evaluator import Evaluator
-
+    from libero_bench.rollouts.loop import EnvironmentSlots
+    from libero_bench.train.rounds import run_round
     from libero_data.runtime.jobs import JobPlacement
 
     work = Path(tempfile.mkdtemp(prefix="bench-eval-mem-"))
     policy = _policy(size)
     trace = []
     try:
-        with Evaluator(JobPlacement("local", 1), work) as evaluator:
+        with EnvironmentSlots(JobPlacement("local", 1), work, 1) as slots:
             for r in range(rollouts):
-                evaluator.run(policy, rollout_jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
-                (pid,) = evaluator.worker_pids()
+                run_round(slots, policy, rollout_jobs(task_ref, 1, size, max_steps, work / f"m{r}", first=r))
+                (pid,) = slots.worker_pids()
                 trace.append(status_mib(pid, "VmRSS"))
                 shutil.rmtree(work / f"m{r}", ignore_errors=True)
         return trace
