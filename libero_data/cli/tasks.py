@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import RenderQuality, console, say, user_errors
+from libero_data.cli.common import PlusFilesOption, RenderQuality, console, say, use_plus, user_errors
 
 
 @user_errors
@@ -17,21 +17,36 @@ def tasks_cmd(
         typer.Option(
             "--suite",
             "-s",
-            help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100; a LIBERO-PRO suite: libero_goal_swap, libero_object_lan, ..., --suite pro lists them) or a suite folder; default: the five suites.",
+            help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100; a LIBERO-PRO suite: libero_goal_swap, libero_object_lan, ..., --suite pro lists them; with --plus a LIBERO-Plus suite, plus/libero_object, ...) or a suite folder; default: the five suites (with --plus: LIBERO-Plus's four, counted by category).",
         ),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON lines instead of a table.")] = False,
+    plus: PlusFilesOption = None,
+    category: Annotated[
+        str | None,
+        typer.Option(
+            "--category",
+            help="A LIBERO-Plus suite: only the tasks of this category (camera, robot, language, light, "
+            "background, noise, layout).",
+        ),
+    ] = None,
 ) -> None:
-    """List tasks: index, name, language instruction and goal."""
+    """List tasks: index, name, language instruction and goal (a LIBERO-Plus task: its category and the
+    prompt their benchmark builds from its file name)."""
     import json
 
     from rich.table import Table
 
     from libero_data.tasks import SUITE_NAMES, get_suite, pro_suite_names
+    from libero_data.tasks.plus import plus_base
 
+    use_plus(plus)
     if suite == "pro":
         for name in pro_suite_names():
             print(name)
+        return
+    if (plus is not None and suite is None) or (suite is not None and plus_base(suite) is not None):
+        _plus_tasks(suite, category, as_json)
         return
     suites = [get_suite(suite)] if suite else [get_suite(n) for n in SUITE_NAMES[:5]]
     out = console()
@@ -53,6 +68,59 @@ def tasks_cmd(
         for t in s.tasks:
             table.add_row(str(t.index), t.name, t.language, t.goal_text)
         out.print(table)
+
+
+def _plus_tasks(suite: str | None, category: str | None, as_json: bool) -> None:
+    """LIBERO-Plus's suites counted by category, or one suite's tasks."""
+    import json
+    from collections import Counter
+
+    from rich.table import Table
+
+    from libero_data.errors import InputError
+    from libero_data.tasks import get_suite
+    from libero_data.tasks.plus import BASES, CATEGORIES, PREFIX
+    from libero_data.tasks.plus_cache import plus_infos
+
+    if category is not None and category not in CATEGORIES:
+        raise InputError(
+            f"unknown LIBERO-Plus category {category!r}; choose from {', '.join(CATEGORIES)}",
+            field="category",
+        )
+    out = console()
+    if suite is None:
+        table = Table(title="LIBERO-Plus (tasks per category)", title_justify="left")
+        for column in ("suite", *CATEGORIES, "total"):
+            table.add_column(column, justify="left" if column == "suite" else "right")
+        for base in BASES:
+            counts = Counter(i.category for i in plus_infos(PREFIX + base))
+            table.add_row(PREFIX + base, *(str(counts[c]) for c in CATEGORIES), str(sum(counts.values())))
+        out.print(table)
+        return
+    tasks = get_suite(suite).tasks
+    rows = [(t, i) for t, i in zip(tasks, plus_infos(suite), strict=True) if category in (None, i.category)]
+    if as_json:
+        for t, i in rows:
+            print(
+                json.dumps(
+                    {
+                        "suite": t.suite,
+                        "index": t.index,
+                        "name": t.name,
+                        "category": i.category,
+                        "language": t.language,
+                        "their_prompt": i.their_prompt,
+                        "problem": i.problem_class,
+                    }
+                )
+            )
+        return
+    table = Table(title=f"{suite} ({len(rows)} tasks)", title_justify="left")
+    for column in ("index", "category", "name", "language"):
+        table.add_column(column, overflow="fold")
+    for t, i in rows:
+        table.add_row(str(t.index), i.category, t.name, t.language)
+    out.print(table)
 
 
 @user_errors
@@ -80,11 +148,13 @@ def show_cmd(
     ] = None,
     bddl: Annotated[bool, typer.Option("--bddl/--no-bddl", help="Print the task's BDDL.")] = True,
     render_quality: RenderQuality = "full",
+    plus: PlusFilesOption = None,
 ) -> None:
     """Render a task's initial scene (agentview and eye-in-hand side by side) and print its BDDL."""
     from libero_data.initial_scene import render_initial_scene
     from libero_data.tasks import get_task
 
+    use_plus(plus)
     resolved = get_task(task)
     target = out or Path(f"{resolved.name}.png")
     with console().status("building the scene (first time: ~10 s)"):

@@ -2,7 +2,8 @@
 
 ``LiberoEnv`` calls these three for every perturbation, whatever its kind; each hands the work
 to the kind's hook of the same name (:mod:`libero_data.perturb.kinds`), a no-op where the kind
-does not define it. The simulator never names a kind.
+does not define it, or to a LIBERO-Plus task's (:mod:`libero_data.perturb.plus_hooks`). The simulator
+never names a kind.
 
 - :func:`apply_scene` once, after the scene is built (e.g. ``camera``, ``lighting``,
   ``texture``: only what cameras see changes, physics is untouched);
@@ -17,16 +18,19 @@ from typing import Any
 
 from libero_data.perturb.kinds import get_kind
 from libero_data.perturb.kinds.base import Kind
+from libero_data.perturb.plus_hooks import KIND as PLUS
 from libero_data.perturb.spec import Perturbation
 
 
 def apply_scene(raw: Any, p: Perturbation) -> None:
     """Change the built scene of ``raw`` (robosuite's env) as ``p`` says."""
-    get_kind(p.kind).apply_scene(raw, p)
+    _hooks(p.kind).apply_scene(raw, p)
 
 
 def start_robot(raw: Any, p: Perturbation, reset_seed: int) -> bool:
-    """Move the arm's start for this reset as ``p`` says; whether its kind moves it at all."""
+    """Move the arm's start for this reset as ``p`` says; whether it moved it."""
+    if p.kind == PLUS:
+        return _hooks(p.kind).start_robot(raw, p, reset_seed)
     kind = get_kind(p.kind)
     if type(kind).start_robot is Kind.start_robot:
         return False
@@ -36,4 +40,13 @@ def start_robot(raw: Any, p: Perturbation, reset_seed: int) -> bool:
 
 def observe(obs: dict[str, Any], p: Perturbation, cameras: tuple[str, ...]) -> None:
     """Change the observation ``obs`` in place as ``p`` says (its ``sim_state`` stays clean)."""
-    get_kind(p.kind).observe(obs, p, cameras)
+    _hooks(p.kind).observe(obs, p, cameras)
+
+
+def _hooks(name: str) -> Any:
+    """The hooks of a kind: one of ours, or a LIBERO-Plus task's (libero_data.perturb.plus_hooks)."""
+    if name == PLUS:
+        from libero_data.perturb.plus_hooks import HOOKS
+
+        return HOOKS
+    return get_kind(name)

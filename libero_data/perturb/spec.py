@@ -19,7 +19,8 @@ from libero_data.perturb.levels import magnitude
 
 @dataclass(frozen=True)
 class Perturbation:
-    """One environment perturbation (a kind of :data:`ENV_KINDS` at a level)."""
+    """One environment perturbation (a kind of :data:`ENV_KINDS` at a level, or a LIBERO-Plus task's
+    camera, arm start and image noise: kind ``libero_plus``, level 0)."""
 
     kind: str
     level: int
@@ -28,7 +29,10 @@ class Perturbation:
 
     def __post_init__(self) -> None:
         from libero_data.perturb.levels import ENV_KINDS
+        from libero_data.perturb.plus_hooks import KIND as PLUS
 
+        if self.kind == PLUS:  # a LIBERO-Plus task's record: their parameters, no level of ours
+            return
         if self.kind not in ENV_KINDS:
             raise InputError(
                 f"unknown perturbation kind {self.kind!r}; known: {', '.join(ENV_KINDS)}", field="kinds"
@@ -52,6 +56,8 @@ class Perturbation:
 
     def describe(self) -> str:
         """One line for cards and reports: kind, level and the values drawn."""
+        if not self.level:
+            return f"{self.kind} ({_values(self.params)})"
         return f"{self.kind} level {self.level} ({_values(self.params)})"
 
 

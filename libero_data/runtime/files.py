@@ -19,6 +19,16 @@ from typing import Any
 import numpy as np
 
 
+def cache_root(explicit: str | Path | None = None) -> Path:
+    """Where this project keeps what it can make again (simplified meshes, LIBERO-Plus's tasks): ``explicit``, ``$LIBERO_DATA_CACHE``, or the user's cache."""
+    if explicit:
+        return Path(explicit)
+    if os.environ.get("LIBERO_DATA_CACHE"):
+        return Path(os.environ["LIBERO_DATA_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "libero-data"
+
+
 def write_bytes(path: Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (scratch file, fsync, rename)."""
     path = Path(path)

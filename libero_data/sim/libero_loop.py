@@ -160,6 +160,10 @@ class LiberoLoop:
         for camera, name in _IMAGES.items():
             if name in raw:
                 obs[camera] = np.asarray(raw[name])
+        if self.env.perturbation is not None:  # a variant's image or state noise, as LiberoEnv applies it
+            from libero_data.perturb.apply import observe
+
+            observe(obs, self.env.perturbation, tuple(c for c in _IMAGES if c in obs))
         return obs
 
     # LIBERO's resets --------------------------------------------------------------------------

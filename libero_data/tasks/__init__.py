@@ -9,12 +9,8 @@ them, and suites on disk.
 
 from libero_data.errors import TaskLookupError
 from libero_data.tasks.suites import (
-    SUITE_FILES,
-    SUITE_MANIFEST,
     SUITE_NAMES,
     ProSuite,
-    Suite,
-    Task,
     get_suite,
     get_task,
     libero_root,
@@ -25,6 +21,7 @@ from libero_data.tasks.suites import (
     task_order,
     task_orders,
 )
+from libero_data.tasks.task import SUITE_FILES, SUITE_MANIFEST, Suite, Task
 
 __all__ = [
     "SUITE_FILES",

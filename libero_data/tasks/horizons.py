@@ -103,14 +103,16 @@ def parse_step_limit(text: str, *, field: str = "max_steps") -> StepLimit:
 
 def step_limit(limit: StepLimit, suite: str, limits: Mapping[str, int] = SUITE_LIMITS) -> int:
     """The steps a rollout of a task of ``suite`` may take under ``limit``: a number, or the
-    suite's entry in ``limits`` (a LIBERO-PRO suite takes its base suite's)."""
+    suite's entry in ``limits`` (a LIBERO-PRO or LIBERO-Plus suite takes its base suite's)."""
+    from libero_data.tasks.plus import plus_base
     from libero_data.tasks.suites import pro_suite
 
     limit = check_step_limit(limit)
     if isinstance(limit, int):
         return limit
     pro = pro_suite(suite)
-    return limits.get(pro.base if pro is not None else suite, OTHER_LIMIT)
+    base = pro.base if pro is not None else plus_base(suite) or suite
+    return limits.get(base, OTHER_LIMIT)
 
 
 def limit_text(limit: object) -> str:

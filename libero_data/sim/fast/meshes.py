@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -32,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from libero_data.config import Config
+from libero_data.runtime.files import cache_root
 
 #: Bumped whenever :func:`simplify_mesh` changes what it returns for the same input.
 ALGORITHM = 1
@@ -191,16 +191,6 @@ def _best_corners(
         dots = np.einsum("tcj,tj->tc", corner_normal[candidates], face_normal)
         best[:, c] = candidates[rows, dots.argmax(axis=1)]
     return best
-
-
-def cache_root(explicit: str | Path | None = None) -> Path:
-    """Where simplified meshes are kept: ``explicit``, ``$LIBERO_DATA_CACHE``, or the user's cache."""
-    if explicit:
-        return Path(explicit)
-    if os.environ.get("LIBERO_DATA_CACHE"):
-        return Path(os.environ["LIBERO_DATA_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "libero-data"
 
 
 @dataclass

@@ -1,0 +1,143 @@
+"""LIBERO-Plus's categories in the simulator, each visible where it should be and nowhere else:
+camera moves the agentview and not the wrist, noise changes the agentview image only, robot
+changes the arm's joints, language changes the prompt only."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from libero_data.tasks.plus import ENV_VAR, PREFIX
+from libero_data.tasks.plus_cache import plus_infos
+
+pytestmark = pytest.mark.sim
+SUITE = PREFIX + "libero_object"
+BASE = "pick_up_the_alphabet_soup_and_place_it_in_the_basket"
+
+
+def _first(category: str, **where: Any) -> Any:
+    from libero_data.tasks import get_suite
+
+    tasks = get_suite(SUITE).tasks
+    for info in plus_infos(SUITE):
+        wanted = info.category == category and info.parsed.base == BASE
+        if wanted and all(getattr(info.parsed, k) == v for k, v in where.items()):
+            return tasks[info.index], info
+    raise AssertionError(f"no {category} task of {BASE}")
+
+
+def _start(task: Any, cameras: tuple[str, ...] = ("agentview", "eye_in_hand")) -> dict[str, Any]:
+    from libero_data.sim.env import EnvConfig, LiberoEnv
+
+    with LiberoEnv(task, EnvConfig(cameras=cameras, image_size=64)) as env:
+        obs = env.reset(task.init_states()[0], seed=0)
+        obs["language"] = env.language
+        obs["cam_pos"] = np.array(env.raw.sim.model.cam_pos[env.camera_id("agentview")])
+        return obs
+
+
+@pytest.fixture(scope="module")
+def plus(plus_wheel: Path) -> Iterator[Path]:
+    import os
+
+    before = os.environ.get(ENV_VAR)
+    os.environ[ENV_VAR] = str(plus_wheel)
+    yield plus_wheel
+    if before is None:
+        os.environ.pop(ENV_VAR, None)
+    else:
+        os.environ[ENV_VAR] = before
+
+
+@pytest.fixture(scope="module")
+def clean(plus: Path) -> dict[str, Any]:
+    from libero_data.tasks import get_task
+
+    task = get_task(f"libero_object/{next(t.index for t in _suite('libero_object') if t.name == BASE)}")
+    return _start(task)
+
+
+def _suite(name: str) -> Any:
+    from libero_data.tasks import get_suite
+
+    return get_suite(name).tasks
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a.astype(np.int16) - b.astype(np.int16)).mean())
+
+
+def test_camera_moves_the_agentview_only(clean: dict[str, Any]) -> None:
+    from libero_data.perturb.plus_hooks import moved_camera
+
+    task, info = _first("camera")
+    obs = _start(task)
+    assert _differs(obs["agentview"], clean["agentview"]) > 10
+    assert np.array_equal(obs["eye_in_hand"], clean["eye_in_hand"])
+    assert np.array_equal(obs["sim_state"], clean["sim_state"]) and obs["language"] == clean["language"]
+    expected, _quat = moved_camera(clean["cam_pos"], [1, 0, 0, 0], info.parsed.view)
+    assert np.allclose(obs["cam_pos"], expected)
+
+
+def test_noise_changes_the_agentview_image_only(clean: dict[str, Any]) -> None:
+    task, _info = _first("noise")
+    obs = _start(task)
+    assert _differs(obs["agentview"], clean["agentview"]) > 2
+    assert np.array_equal(obs["eye_in_hand"], clean["eye_in_hand"])
+    assert np.array_equal(obs["state"], clean["state"]) and np.array_equal(
+        obs["sim_state"], clean["sim_state"]
+    )
+
+
+def test_robot_starts_the_arm_at_their_pose(clean: dict[str, Any], plus: Path) -> None:
+    from libero_data.tasks.plus import plus_files
+
+    task, info = _first("robot")
+    obs = _start(task, cameras=())
+    start = np.array(plus_files().robot_starts[info.parsed.robot])
+    assert np.allclose(obs["joint_pos"], start, atol=1e-6)
+    assert np.abs(clean["joint_pos"] - start).max() > 0.02
+    assert obs["language"] == clean["language"]
+
+
+def test_language_changes_the_prompt_only(clean: dict[str, Any]) -> None:
+    task, info = _first("language")
+    obs = _start(task)
+    assert obs["language"] == info.language != clean["language"]
+    for key in ("eye_in_hand", "sim_state"):
+        assert np.array_equal(obs[key], clean[key]), key
+    # their camera is LIBERO's rounded to 4 decimals in every task: a pixel here and there
+    assert _differs(obs["agentview"], clean["agentview"]) < 0.5
+
+
+def test_in_libero_s_loop_the_stored_state_wins_and_the_controller_pulls_back(plus: Path) -> None:
+    """Their evaluation writes stored init state 0 over the perturbed arm (set_init_state); the
+    controller, which read the perturbed pose at the reset, then pulls the end effector toward it
+    during the waiting steps."""
+    from libero_data.sim.env import EnvConfig, LiberoEnv
+    from libero_data.sim.libero_loop import LiberoLoop
+    from libero_data.tasks import get_task
+    from libero_data.tasks.plus import plus_files
+
+    starts = plus_files().robot_starts
+    robots = sorted(
+        {i.parsed.robot for i in plus_infos(SUITE) if i.category == "robot" and i.parsed.base == BASE}
+    )
+    farthest = max(robots, key=lambda k: float(np.abs(np.array(starts[k]) - starts[1]).max()))
+    task, _info = _first("robot", robot=farthest)
+    base = get_task(f"libero_object/{next(t.index for t in _suite('libero_object') if t.name == BASE)}")
+    state = task.init_states()[0]
+    ends = {}
+    for which in (task, base):
+        with LiberoEnv(which, EnvConfig(cameras=())) as env:
+            loop = LiberoLoop(env)
+            first = loop.reset(state, 0, settle=0)
+            stored = state[1:][np.asarray(env.raw.robots[0]._ref_joint_pos_indexes)]
+            assert np.allclose(first["joint_pos"], stored)  # set_init_state wins at first
+            ends[which.suite] = np.asarray(loop.reset(state, 0, settle=10)["eef_pos"])
+    pulled = float(np.linalg.norm(ends[task.suite] - ends[base.suite]))
+    assert pulled > 0.01, f"the end effector was pulled {pulled:.4f} m"
