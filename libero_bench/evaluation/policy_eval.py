@@ -119,6 +119,8 @@ def resolve_tasks(refs: Sequence[str]) -> list[Any]:
             out.extend(get_suite(ref).tasks)
         except KeyError:
             out.append(get_task(ref))
+    for task in out:
+        task.require_buildable()  # a LIBERO-Plus task without its asset: one sentence naming it
     names = [t.name for t in out]
     if len(set(names)) != len(names):
         raise InputError(

@@ -249,11 +249,25 @@ PlusFilesOption = Annotated[
 ]
 
 
-def use_plus(path: Path | None) -> None:
-    """Name LIBERO-Plus's files for this command and the worker processes it starts (checked now)."""
-    if path is None:
-        return
-    from libero_data.tasks.plus import ENV_VAR, plus_files
+PlusAssetsOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--plus-assets",
+        help="LIBERO-Plus's assets folder (what their assets.zip unpacks to): their light tasks, most background "
+        "tasks and their added objects need it; without it those tasks are refused, naming the file they need "
+        "(default: $LIBERO_DATA_PLUS_ASSETS).",
+    ),
+]
 
-    plus_files(path)  # one sentence now when the path holds no LIBERO-Plus files
-    os.environ[ENV_VAR] = str(Path(path).expanduser().resolve())
+
+def use_plus(path: Path | None, assets: Path | None = None) -> None:
+    """Name LIBERO-Plus's files (and assets folder) for this command and the worker processes it
+    starts (checked now)."""
+    from libero_data.tasks.plus import ASSETS_VAR, ENV_VAR, plus_assets, plus_files
+
+    if path is not None:
+        plus_files(path)  # one sentence now when the path holds no LIBERO-Plus files
+        os.environ[ENV_VAR] = str(Path(path).expanduser().resolve())
+    if assets is not None:
+        os.environ[ASSETS_VAR] = str(Path(assets).expanduser().resolve())
+        plus_assets()  # one sentence now when the folder does not exist

@@ -15,6 +15,7 @@ import typer
 
 from libero_data.cli.common import (
     ExecutorKind,
+    PlusAssetsOption,
     PlusFilesOption,
     RayAddress,
     RenderQuality,
@@ -197,6 +198,7 @@ def generate_cmd(
     executor: ExecutorKind = "local",
     ray_address: RayAddress = None,
     plus: PlusFilesOption = None,
+    plus_assets: PlusAssetsOption = None,
 ) -> None:
     """Generate scripted demonstrations as a LeRobot v3 dataset, with MCAP logs and a dataset card.
 
@@ -210,7 +212,7 @@ def generate_cmd(
     os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner, once per video
     limit_malloc_arenas()  # with --workers 1 this process renders and writes every episode
     runner = JobPlacement(executor, workers, ray_address)  # checked before any work
-    use_plus(plus)
+    use_plus(plus, plus_assets)
     task_refs = split_list(tasks)
     _check_combination(suite, task_refs, procedural, variants_of, scene, template, kinds or level, tasks_only)
     if procedural is not None or variants_of is not None:

@@ -7,7 +7,15 @@ from typing import Annotated
 
 import typer
 
-from libero_data.cli.common import PlusFilesOption, RenderQuality, console, say, use_plus, user_errors
+from libero_data.cli.common import (
+    PlusAssetsOption,
+    PlusFilesOption,
+    RenderQuality,
+    console,
+    say,
+    use_plus,
+    user_errors,
+)
 
 
 @user_errors
@@ -22,6 +30,7 @@ def tasks_cmd(
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON lines instead of a table.")] = False,
     plus: PlusFilesOption = None,
+    plus_assets: PlusAssetsOption = None,
     category: Annotated[
         str | None,
         typer.Option(
@@ -40,7 +49,7 @@ def tasks_cmd(
     from libero_data.tasks import SUITE_NAMES, get_suite, pro_suite_names
     from libero_data.tasks.plus import plus_base
 
-    use_plus(plus)
+    use_plus(plus, plus_assets)
     if suite == "pro":
         for name in pro_suite_names():
             print(name)
@@ -149,12 +158,13 @@ def show_cmd(
     bddl: Annotated[bool, typer.Option("--bddl/--no-bddl", help="Print the task's BDDL.")] = True,
     render_quality: RenderQuality = "full",
     plus: PlusFilesOption = None,
+    plus_assets: PlusAssetsOption = None,
 ) -> None:
     """Render a task's initial scene (agentview and eye-in-hand side by side) and print its BDDL."""
     from libero_data.initial_scene import render_initial_scene
     from libero_data.tasks import get_task
 
-    use_plus(plus)
+    use_plus(plus, plus_assets)
     resolved = get_task(task)
     target = out or Path(f"{resolved.name}.png")
     with console().status("building the scene (first time: ~10 s)"):

@@ -14,6 +14,8 @@ its arm's start and its image noise, applied through the same three hooks as our
   read the perturbed pose at the reset, pulls the end effector toward that pose during the waiting
   steps (LIBERO's loop, :mod:`libero_data.sim.libero_loop`, reproduces this as it is). Outside that
   loop (``LiberoEnv.reset``: our protocol, the expert) the arm starts at their joint angles.
+- **Scene** (light and background tasks: ``scene``): what their scene class changes of LIBERO's,
+  applied to the built scene (:mod:`libero_data.perturb.plus_scene`).
 - **Noise** (``noise`` 1-50): the agentview image only, one of their five corruptions at one of
   ten severities (:mod:`libero_data.perturb.plus_noise`), drawn from the perturbation's seed and
   the simulator's state.
@@ -53,6 +55,10 @@ class LiberoPlus:
             raw.robots[0].init_qpos = np.array(params["robot_start"], dtype=np.float64)
         mujoco.mj_kinematics(model, data)
         mujoco.mj_camlight(model, data)
+        if params.get("scene"):
+            from libero_data.perturb.plus_scene import apply_plus_scene
+
+            apply_plus_scene(raw, params["scene"])
 
     def start_robot(self, raw: Any, p: Drawn, reset_seed: int) -> bool:
         start = p.params.get("robot_start")

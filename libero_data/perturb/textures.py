@@ -32,12 +32,15 @@ def installed_textures() -> dict[str, Path]:
 
 
 def installed_texture(name: str, width: int, height: int) -> np.ndarray:
-    """The installed texture ``name`` (``<package>/<file>``), resized, RGB uint8."""
+    """The installed texture ``name`` (``<package>/<file>``, or an image file's absolute path),
+    resized, RGB uint8."""
     from PIL import Image
 
     from libero_data.errors import MissingFileError
 
     path = installed_textures().get(name)
+    if path is None and Path(name).is_absolute() and Path(name).is_file():
+        path = Path(name)
     if path is None:
         raise MissingFileError(
             f"texture {name} is not installed here (the variant was made with other assets)"

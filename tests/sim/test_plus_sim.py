@@ -141,3 +141,43 @@ def test_in_libero_s_loop_the_stored_state_wins_and_the_controller_pulls_back(pl
             ends[which.suite] = np.asarray(loop.reset(state, 0, settle=10)["eef_pos"])
     pulled = float(np.linalg.norm(ends[task.suite] - ends[base.suite]))
     assert pulled > 0.01, f"the end effector was pulled {pulled:.4f} m"
+
+
+def test_a_background_of_libero_s_own_images_changes_the_floor_not_the_state(clean: dict[str, Any]) -> None:
+    from libero_data.tasks import get_suite
+
+    tasks = get_suite(SUITE).tasks
+    task = next(
+        tasks[i.index]
+        for i in plus_infos(SUITE)
+        if i.category == "background" and i.parsed.base == BASE and not tasks[i.index].missing
+    )
+    obs = _start(task)
+    assert _differs(obs["agentview"], clean["agentview"]) > 2
+    assert np.array_equal(obs["sim_state"], clean["sim_state"])
+
+
+def test_a_light_task_takes_its_lights_from_the_assets_scene(
+    clean: dict[str, Any], plus: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Their archive cannot be downloaded here: the scene file is one written in its layout (a
+    LIBERO scene's light, dimmed), which is what the mechanism reads."""
+    from libero_data.tasks import get_suite
+    from libero_data.tasks.plus import ASSETS_VAR, plus_files
+    from libero_data.tasks.plus_scenes import plus_scenes
+
+    info = next(i for i in plus_infos(SUITE) if i.category == "light" and i.parsed.base == BASE)
+    scene = plus_scenes(plus_files())[info.problem_class.lower()]
+    assert scene.scene_xml is not None
+    xml = tmp_path / "assets" / scene.scene_xml
+    xml.parent.mkdir(parents=True)
+    xml.write_text(
+        '<mujoco><worldbody><light name="light1" diffuse=".1 .1 .1" pos="1 1 4"/>'
+        '<light name="light2" diffuse=".1 .1 .1" pos="-3 -3 4"/></worldbody></mujoco>'
+    )
+    monkeypatch.setenv(ASSETS_VAR, str(tmp_path / "assets"))
+    task = get_suite(SUITE).tasks[info.index]
+    assert not task.missing and str(xml) in task.bddl_path.read_text().splitlines()[0]
+    obs = _start(task)
+    assert obs["agentview"].mean() < clean["agentview"].mean() - 10  # dimmer
+    assert np.array_equal(obs["sim_state"], clean["sim_state"])

