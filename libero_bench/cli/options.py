@@ -3,6 +3,7 @@ how many environments step at once, and a policy server's observation mapping.""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -115,7 +116,37 @@ Benchmark = Annotated[
         "--benchmark",
         help="libero-pro: the standard protocol over each base suite in --tasks (or tasks of it) and its "
         "four LIBERO-PRO families (object, swap, lan, task), and LIBERO-PRO's table (original, Obj, Pos, "
-        "Sem, Task) with n and Wilson intervals; --trials per task.",
+        "Sem, Task) with n and Wilson intervals; --trials per task. libero-plus (with --plus): LIBERO-Plus's "
+        "tasks of each base suite in --tasks (libero_object: all; libero_object/0: those made from that task; "
+        "plus/libero_object/17: one), each once from init state 0 under the standard protocol, and their "
+        "table (seven categories and a total) with n and Wilson intervals.",
+    ),
+]
+PerCategory = Annotated[
+    int | None,
+    typer.Option(
+        "--per-category",
+        help="--benchmark libero-plus: run this many tasks per category and suite (stratified by difficulty "
+        "where --plus-classification gives it), drawn with --seed: the same tasks for every policy.",
+        min=1,
+    ),
+]
+SampleSeed = Annotated[int, typer.Option("--seed", help="--per-category: the seed of the draw.")]
+PlusPrompt = Annotated[
+    str,
+    typer.Option(
+        "--plus-prompt",
+        help="--benchmark libero-plus: 'clean' sends each task's instruction; 'raw' sends what their benchmark "
+        "sends, the task's file name as words with the perturbation's suffix ('... basket view 0 0 100 0 0 "
+        "initstate 358'), for comparison.",
+    ),
+]
+PlusClassification = Annotated[
+    Path | None,
+    typer.Option(
+        "--plus-classification",
+        help="Their task_classification.json (in their checkout's libero/libero/benchmark/): each task's "
+        "difficulty, by which --per-category stratifies.",
     ),
 ]
 EvalTasks = Annotated[

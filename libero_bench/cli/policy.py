@@ -17,8 +17,12 @@ from libero_bench.cli.options import (
     HeldoutStarts,
     KeepRollouts,
     MaxSteps,
+    PerCategory,
+    PlusClassification,
+    PlusPrompt,
     ProtocolName,
     ReplanSteps,
+    SampleSeed,
     SentImageSize,
     Server,
     StoredStarts,
@@ -27,12 +31,15 @@ from libero_bench.cli.options import (
 )
 from libero_data.cli.common import (
     ExecutorKind,
+    PlusAssetsOption,
+    PlusFilesOption,
     RayAddress,
     RenderQuality,
     quiet_environment,
     rollout_progress,
     say,
     split_list,
+    use_plus,
     user_errors,
 )
 
@@ -66,6 +73,12 @@ def eval_cmd(
     replan_steps: ReplanSteps = 5,
     render_quality: RenderQuality = "full",
     keep_work: KeepRollouts = False,
+    plus: PlusFilesOption = None,
+    plus_assets: PlusAssetsOption = None,
+    per_category: PerCategory = None,
+    seed: SampleSeed = 0,
+    plus_prompt: PlusPrompt = "clean",
+    plus_classification: PlusClassification = None,
 ) -> None:
     """Evaluate a policy in simulation: a LeRobot policy (ACT, Diffusion Policy, SmolVLA, ...), a
     libero-bench run, or a served one (--server); every rollout stored, success with intervals.
@@ -76,7 +89,8 @@ def eval_cmd(
     run as in lerobot-eval. A server gets openpi's LIBERO observation (observation/image,
     observation/wrist_image, observation/state, prompt) and its action chunks are executed
     --replan-steps at a time. --protocol standard reproduces openpi's LIBERO client exactly (docs/evaluation.md:
-    Reproducing a published LIBERO score); --benchmark libero-pro makes LIBERO-PRO's table.
+    Reproducing a published LIBERO score); --benchmark libero-pro makes LIBERO-PRO's table, --benchmark
+    libero-plus (with --plus) LIBERO-Plus's.
     """
     quiet_environment()
     from libero_bench.evaluation.policy_eval import EvalRequest, eval_markdown, evaluate_policy
@@ -92,6 +106,24 @@ def eval_cmd(
     if out is None:
         raise InputError("name the evaluation folder", field="out")
     execution = RolloutResources(JobPlacement(executor, workers, ray_address), batch_size, device)
+    use_plus(plus, plus_assets)
+    if benchmark == "libero-plus":
+        _libero_plus(
+            policy_or_server(policy, server),
+            split_list(tasks),
+            out,
+            per_category=per_category,
+            seed=seed,
+            prompt=_plus_prompt(plus_prompt),
+            classification=plus_classification,
+            max_steps=parse_step_limit(max_steps),
+            render_quality=render_quality,
+            image_size=image_size,
+            replan_steps=replan_steps,
+            execution=execution,
+            keep_work=keep_work,
+        )
+        return
     if benchmark is not None:
         _libero_pro(
             policy_or_server(policy, server),
@@ -139,12 +171,45 @@ def eval_cmd(
     )
 
 
+def _plus_prompt(choice: str) -> str:
+    from libero_data.errors import InputError
+
+    prompts = {"clean": "instruction", "raw": "file-name"}
+    if choice not in prompts:
+        raise InputError(f"--plus-prompt is clean or raw, not {choice!r}", field="plus_prompt")
+    return prompts[choice]
+
+
+def _libero_plus(
+    policy: str, refs: list[str], out: Path, *, classification: Path | None, **options: object
+) -> None:
+    from libero_bench.evaluation.libero_plus import evaluate_libero_plus, plus_markdown, read_difficulty
+
+    difficulty = read_difficulty(classification) if classification is not None else None
+    with rollout_progress() as (done, total):
+        table = evaluate_libero_plus(
+            policy,
+            refs,
+            out,
+            difficulty=difficulty,
+            on_result=done,
+            on_total=total,
+            **options,  # type: ignore[arg-type]
+        )
+    say(plus_markdown(table))
+    say(
+        f"wrote {out / 'libero_plus.md'}, {out / 'libero_plus.json'}, {out / 'libero_plus.png'} and a folder per suite"
+    )
+
+
 def _libero_pro(policy: str, refs: list[str], out: Path, *, benchmark: str, **options: object) -> None:
     from libero_bench.evaluation.libero_pro import BENCHMARK, evaluate_libero_pro, pro_markdown
     from libero_data.errors import InputError
 
     if benchmark != BENCHMARK:
-        raise InputError(f"unknown benchmark {benchmark!r}; choose {BENCHMARK}", field="benchmark")
+        raise InputError(
+            f"unknown benchmark {benchmark!r}; choose {BENCHMARK} or libero-plus", field="benchmark"
+        )
     with rollout_progress() as (done, total):
         table = evaluate_libero_pro(policy, refs, out, on_result=done, on_total=total, **options)  # type: ignore[arg-type]
     say(pro_markdown(table))

@@ -49,7 +49,8 @@ class EvalRequest(RolloutSettings):
     ``settle``, ``render_quality``: :class:`~libero_data.rollout.RolloutSettings`). For a server,
     ``image_size`` is the camera size sent (default: the size the server's metadata names, else 224,
     openpi's) and ``replan_steps`` the actions executed of each chunk it returns (openpi's LIBERO
-    client: 5)."""
+    client: 5). ``prompt``: each task's instruction, or (``file-name``) the words of its file name as
+    LIBERO-Plus's benchmark sends them (:func:`libero_data.tasks.plus.file_name_prompt`)."""
 
     policy: str
     tasks: tuple[str, ...]
@@ -59,10 +60,17 @@ class EvalRequest(RolloutSettings):
     replan_steps: int = 5
     protocol: str = LIBERO_BENCH
     trials: int = 50
+    prompt: str = "instruction"
 
     def __post_init__(self) -> None:
         super().__post_init__()
         get_protocol(self.protocol)
+        from libero_data.tasks.plus import PROMPTS
+
+        if self.prompt not in PROMPTS:
+            raise InputError(
+                f"the prompt is one of {', '.join(PROMPTS)}, not {self.prompt!r}", field="prompt"
+            )
         if self.replan_steps < 1:
             raise InputError("execute at least one action of each chunk", field="replan_steps")
         if self.image_size is not None and self.image_size < 8:
@@ -131,13 +139,15 @@ def resolve_tasks(refs: Sequence[str]) -> list[Any]:
     return out
 
 
-def _eval_task(task: Any, position: int, heldout: int, avoid: set[int], embedding: np.ndarray) -> EvalTask:
+def _eval_task(
+    task: Any, position: int, heldout: int, avoid: set[int], embedding: np.ndarray, language: str
+) -> EvalTask:
     from libero_data.seeding import heldout_starts
 
     inits = task.init_states() if task.init_states_path is not None else None
     return EvalTask(
         name=task.name,
-        language=task.language,
+        language=language,
         position=position,
         env_ref=str(task.bddl_path),
         task_emb=embedding,
@@ -321,13 +331,14 @@ def _eval_tasks(
         if HELDOUT in request.counts() and request.heldout:
             raise  # held-out placements must avoid the training data's: it has to be found
         dataset, starts = None, {}
+    from libero_data.tasks.plus import file_name_prompt
+
+    prompts = [t.language if request.prompt == "instruction" else file_name_prompt(t) for t in tasks]
     embeddings = (
-        source.embed([t.language for t in tasks])
-        if source.embed is not None
-        else np.zeros((len(tasks), 1), dtype=np.float32)
+        source.embed(prompts) if source.embed is not None else np.zeros((len(tasks), 1), dtype=np.float32)
     )
     eval_tasks = [
-        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1], embeddings[i])
+        _eval_task(t, i, request.heldout, starts.get(t.name, (set(), set()))[1], embeddings[i], prompts[i])
         for i, t in enumerate(tasks)
     ]
     if heldout_seeds:

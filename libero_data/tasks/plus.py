@@ -191,3 +191,15 @@ def _opened(path: str) -> PlusFiles:
     from libero_data.tasks.plus_files import PlusFiles
 
     return PlusFiles(path)
+
+
+#: The prompts an evaluation may send: each task's instruction, or its file name's words.
+PROMPTS = ("instruction", "file-name")
+
+
+def file_name_prompt(task: Any) -> str:
+    """What LIBERO-Plus's benchmark sends as ``task``'s prompt: its file name's words (suffix
+    included), except for a ``language`` task, whose rewritten instruction it reads."""
+    if plus_base(task.suite) is not None and parse_name(task.name).category == "language":
+        return str(task.language)
+    return their_prompt(task.name)
