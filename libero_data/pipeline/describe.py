@@ -186,7 +186,7 @@ def suite_card(
         episodes_per_task=episodes_per_task,
         image_size=image_size,
         seed=seed,
-        repo_id=f"libero-data/{suite.name}",
+        repo_id=f"libero-data/{suite.name.replace('/', '-')}",  # plus/libero_object: one name
     )
     tasks = []
     for task in suite.tasks:

@@ -143,7 +143,7 @@ def resolve_request(
         image_size=image_size,
         seed=seed,
         max_attempts=max_attempts,
-        repo_id=repo_id or f"libero-data/{s.name}",
+        repo_id=repo_id or f"libero-data/{s.name.replace('/', '-')}",  # plus/libero_object: one name
         starts=starts,
         features=features,
         cameras=tuple(cameras),
