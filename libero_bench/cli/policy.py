@@ -183,7 +183,8 @@ def _plus_prompt(choice: str) -> str:
 def _libero_plus(
     policy: str, refs: list[str], out: Path, *, classification: Path | None, **options: object
 ) -> None:
-    from libero_bench.evaluation.libero_plus import evaluate_libero_plus, plus_markdown, read_difficulty
+    from libero_bench.evaluation.libero_plus import evaluate_libero_plus, plus_markdown
+    from libero_data.tasks.plus_sample import read_difficulty
 
     difficulty = read_difficulty(classification) if classification is not None else None
     with rollout_progress() as (done, total):

@@ -28,104 +28,14 @@ from typing import Any
 import numpy as np
 
 from libero_bench.runs.intervals import Rate
-from libero_data.errors import InputError
 from libero_data.tasks.horizons import SUITE, StepLimit
-from libero_data.tasks.plus import BASES, CATEGORIES, PREFIX, TITLES, PlusTaskInfo
+from libero_data.tasks.plus import CATEGORIES, PREFIX, TITLES
+from libero_data.tasks.plus_sample import plus_plan
 
 BENCHMARK = "libero-plus"
 #: What LIBERO-Plus reports (their README's table, totals pooled over all 10,030 tasks): for placing
 #: ours beside theirs.
 REPORTED_TOTALS = {"OpenVLA": 15.6, "pi0": 53.6, "pi0-FAST": 61.6, "OpenVLA-OFT": 69.6, "OpenVLA-OFT+": 79.6}
-
-
-def plus_plan(
-    refs: Sequence[str],
-    per_category: int | None = None,
-    seed: int = 0,
-    difficulty: dict[str, int] | None = None,
-) -> dict[str, dict[str, Any]]:
-    """Base suite -> ``{"run": [task indices], "not_run": {category: count}}`` for ``refs``."""
-    from libero_data.tasks import get_suite
-    from libero_data.tasks.plus_cache import plus_infos
-
-    chosen: dict[str, list[PlusTaskInfo]] = {}
-    for ref in refs:
-        base, picked = _picked(ref, plus_infos)
-        chosen.setdefault(base, [])
-        known = {i.index for i in chosen[base]}
-        chosen[base] += [i for i in picked if i.index not in known]
-    plan: dict[str, dict[str, Any]] = {}
-    for base, infos in chosen.items():
-        tasks = get_suite(PREFIX + base).tasks
-        runnable = [i for i in infos if not tasks[i.index].missing]
-        not_run: dict[str, int] = {}
-        for i in infos:
-            if tasks[i.index].missing:
-                not_run[i.category] = not_run.get(i.category, 0) + 1
-        if per_category is not None:
-            runnable = _sample(base, runnable, per_category, seed, difficulty or {})
-        plan[base] = {"run": sorted(i.index for i in runnable), "not_run": not_run}
-    return plan
-
-
-def _picked(ref: str, infos_of: Callable[[str], tuple[PlusTaskInfo, ...]]) -> tuple[str, list[PlusTaskInfo]]:
-    """The base suite a reference names and its LIBERO-Plus tasks."""
-    from libero_data.tasks import get_suite
-
-    name = ref.removeprefix(PREFIX)
-    base, _, key = name.partition("/")
-    if base not in BASES:
-        raise InputError(
-            f"LIBERO-Plus perturbs {', '.join(BASES)}; {ref!r} is not one of them or a task of one",
-            field="tasks",
-        )
-    infos = list(infos_of(PREFIX + base))
-    if not key:
-        return base, infos
-    if ref.startswith(PREFIX):
-        task = get_suite(PREFIX + base).task(key)
-        return base, [infos[task.index]]
-    source = get_suite(base).task(key).name  # a LIBERO task: the LIBERO-Plus tasks made from it
-    return base, [i for i in infos if i.parsed.base == source]
-
-
-def _sample(
-    base: str, infos: list[PlusTaskInfo], n: int, seed: int, difficulty: dict[str, int]
-) -> list[PlusTaskInfo]:
-    """``n`` tasks per category (all where fewer), levels of difficulty in turn where known."""
-    out: list[PlusTaskInfo] = []
-    for c, category in enumerate(CATEGORIES):
-        rng = np.random.default_rng([seed, BASES.index(base), c])
-        levels: dict[int, list[PlusTaskInfo]] = {}
-        for i in sorted((i for i in infos if i.category == category), key=lambda i: i.index):
-            levels.setdefault(difficulty.get(i.parsed.name, 0), []).append(i)
-        queues = [[group[k] for k in rng.permutation(len(group))] for _level, group in sorted(levels.items())]
-        picked: list[PlusTaskInfo] = []
-        while len(picked) < n and any(queues):
-            for queue in queues:
-                if queue and len(picked) < n:
-                    picked.append(queue.pop(0))
-        out += picked
-    return out
-
-
-def read_difficulty(path: str | Path) -> dict[str, int]:
-    """Task name -> difficulty level 1-5 from their ``task_classification.json`` (tasks without a
-    level are left out)."""
-    from libero_data.runtime.files import read_json
-
-    data = read_json(Path(path))
-    if not isinstance(data, dict):
-        raise InputError(
-            f"{path} is not LIBERO-Plus's task classification (a suite -> tasks object)",
-            field="plus_classification",
-        )
-    levels: dict[str, int] = {}
-    for entries in data.values():
-        for entry in entries if isinstance(entries, list) else []:
-            if isinstance(entry, dict) and isinstance(entry.get("difficulty_level"), int):
-                levels[str(entry.get("name"))] = int(entry["difficulty_level"])
-    return levels
 
 
 def evaluate_libero_plus(

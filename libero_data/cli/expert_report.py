@@ -8,7 +8,16 @@ from typing import Annotated, Any
 
 import typer
 
-from libero_data.cli.common import console, progress, say, split_list, user_errors
+from libero_data.cli.common import (
+    PlusAssetsOption,
+    PlusFilesOption,
+    console,
+    progress,
+    say,
+    split_list,
+    use_plus,
+    user_errors,
+)
 
 
 @user_errors
@@ -21,7 +30,8 @@ def expert_report_cmd(
         typer.Option(
             "--tasks",
             "-t",
-            help="Task indices or names within the suite (one --suite only; repeat or comma-separate).",
+            help="Task indices or names within the suite (one --suite only), or without --suite whole task "
+            "references (libero_goal/3, plus/libero_object/248); repeat or comma-separate.",
         ),
     ] = None,
     inits: Annotated[
@@ -41,6 +51,8 @@ def expert_report_cmd(
             help="Start over instead of resuming the report already in --out (expert_report.jsonl).",
         ),
     ] = False,
+    plus: PlusFilesOption = None,
+    plus_assets: PlusAssetsOption = None,
 ) -> None:
     """Measure the scripted expert's success rate per task over its stored init states.
 
@@ -53,8 +65,8 @@ def expert_report_cmd(
     from libero_data.experts.report import ReportJournal, run_report
     from libero_data.tasks import SUITE_NAMES
 
-    names = split_list(suite) or list(SUITE_NAMES[:5])
-    refs = _task_refs(names, split_list(tasks))
+    use_plus(plus, plus_assets)
+    refs = _task_refs(split_list(suite), split_list(tasks), list(SUITE_NAMES[:5]))
     config = ExpertConfig()
     settings = _settings(inits, seed, config)
     journal = ReportJournal(out, settings, fresh=fresh)
@@ -98,9 +110,12 @@ def expert_report_cmd(
     say(f"wrote {csv_path} and {md_path}")
 
 
-def _task_refs(suites: list[str], tasks: list[str]) -> list[str]:
-    from libero_data.tasks import get_suite
+def _task_refs(suites: list[str], tasks: list[str], default: list[str]) -> list[str]:
+    from libero_data.tasks import get_suite, get_task
 
+    if tasks and not suites:
+        return list(dict.fromkeys(get_task(t).id for t in tasks))
+    suites = suites or default
     if tasks:
         if len(suites) != 1:
             raise typer.BadParameter("--tasks needs exactly one --suite", param_hint="--tasks")

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from benchmarks.openpi_loop import RecordingServer
-from libero_bench.evaluation.libero_plus import plus_plan
 from libero_data.tasks.plus import CATEGORIES, ENV_VAR, PREFIX, file_name_prompt
 from libero_data.tasks.plus_cache import plus_infos
+from libero_data.tasks.plus_sample import plus_plan
 
 
 @pytest.fixture

@@ -1,0 +1,171 @@
+"""Our committed robustness-data policies under LIBERO-Plus: does variant data raise the score, per
+category and in total, and by how much against image augmentation alone? The table RESULTS
+quotes, made from the committed evaluation folders (``benchmarks/libero_plus.sh``).
+
+For each task (libero_object/0, libero_spatial/8) three policies ran the same LIBERO-Plus tasks (20
+runnable ones per category made from that task, drawn with seed 0), each once from init state 0
+under the standard protocol: A (``single-*``: the quick preset on 100 demonstrations of the task),
+A with image augmentation (``single-aug-*``) and B (``mixed-more-*``: the same recipe on three
+draws of every variant of ours). Policies pair task for task; pairs are tested with McNemar's
+exact test, per category and pooled.
+
+    python -m benchmarks.libero_plus_report [--results benchmarks/results/libero_plus]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from libero_bench.analysis.compare import Paired
+from libero_bench.runs.intervals import Rate
+from libero_data.tasks.plus import CATEGORIES, TITLES
+
+RUNS = Path(__file__).resolve().parent / "results" / "robustness_data" / "runs"
+TASKS = {"object-0": "libero_object/0", "spatial-8": "libero_spatial/8"}
+KINDS = ("single", "single-aug", "mixed-more")
+LABELS = {"single": "A", "single-aug": "A with augmentation", "mixed-more": "B (variant data)"}
+#: Pairs compared category for category, task for task: (first, second).
+PAIRS = (("mixed-more", "single"), ("single-aug", "single"), ("mixed-more", "single-aug"))
+
+
+def _outcomes(root: Path, policy: str) -> dict[str, dict[str, bool]]:
+    """Category -> task name -> success, from a policy's table and its suites' rollouts (a task's
+    name says its category: libero_data.tasks.plus.parse_name)."""
+    from libero_data.tasks.plus import parse_name
+
+    table = json.loads((root / policy / "libero_plus.json").read_text())
+    out: dict[str, dict[str, bool]] = {c: {} for c in CATEGORIES}
+    for row in table["rows"]:
+        records = json.loads((root / policy / row["folder"] / "results.json").read_text())["rollouts"]
+        for r in records:
+            out[parse_name(r["task"]).category][r["task"]] = bool(r["success"])
+    return out
+
+
+def _paired(a: dict[str, bool], b: dict[str, bool]) -> dict[str, Any]:
+    keys = sorted(set(a) & set(b))
+    if not keys:
+        return {"n": 0}
+    return Paired(
+        a=sum(a[k] for k in keys),
+        b=sum(b[k] for k in keys),
+        only_a=sum(a[k] and not b[k] for k in keys),
+        only_b=sum(b[k] and not a[k] for k in keys),
+        n=len(keys),
+    ).to_dict()
+
+
+def summary(root: Path) -> dict[str, Any]:
+    """The report's content from the committed folders under ``root``."""
+    out: dict[str, Any] = {"categories": list(CATEGORIES), "tasks": {}}
+    for short, task in TASKS.items():
+        present = [k for k in KINDS if (root / f"{k}-{short}" / "libero_plus.json").is_file()]
+        if not present:
+            continue
+        outcomes = {k: _outcomes(root, f"{k}-{short}") for k in present}
+        entry: dict[str, Any] = {"task": task, "policies": {}, "pairs": []}
+        for kind, cats in outcomes.items():
+            every = [v for c in CATEGORIES for v in cats[c].values()]
+            entry["policies"][kind] = {
+                "label": LABELS[kind],
+                "cells": {c: Rate(sum(cats[c].values()), len(cats[c])).to_dict() for c in CATEGORIES},
+                "total": Rate(sum(every), len(every)).to_dict(),
+            }
+        for first, second in PAIRS:
+            if first in outcomes and second in outcomes:
+                a, b = outcomes[first], outcomes[second]
+                entry["pairs"].append(
+                    {
+                        "first": first,
+                        "second": second,
+                        "cells": {c: _paired(a[c], b[c]) for c in CATEGORIES},
+                        "total": _paired(
+                            {f"{c}/{k}": v for c in CATEGORIES for k, v in a[c].items()},
+                            {f"{c}/{k}": v for c in CATEGORIES for k, v in b[c].items()},
+                        ),
+                    }
+                )
+        out["tasks"][short] = entry
+    return out
+
+
+def _cell(rate: dict[str, Any]) -> str:
+    if not rate["n"]:
+        return "–"
+    return f"{rate['successes']}/{rate['n']} ({rate['low']:.0%}–{rate['high']:.0%})"
+
+
+def _pair_cell(p: dict[str, Any]) -> str:
+    if not p["n"]:
+        return "–"
+    diff = (p["a"]["successes"] - p["b"]["successes"]) / p["n"]
+    return f"{diff:+.0%} ({p['only_a']}:{p['only_b']}, p {p['p_value']:.3f})"
+
+
+def markdown(report: dict[str, Any]) -> str:
+    titles = [TITLES[c] for c in CATEGORIES]
+    lines = [
+        "# Robustness-data policies under LIBERO-Plus",
+        "",
+        "LIBERO-Plus tasks made from each policy's own task, 20 runnable per category (seed 0; the same "
+        "tasks for every policy), each once from init state 0 under the standard protocol. Success with n "
+        "and 95% Wilson interval. Pairs: the difference in success, the discordant tasks (first only : "
+        "second only) and McNemar's exact p.",
+    ]
+    for entry in report["tasks"].values():
+        lines += [
+            "",
+            f"## {entry['task']}",
+            "",
+            "| policy | " + " | ".join(titles) + " | Total |",
+            "|---|" + "---:|" * (len(titles) + 1),
+        ]
+        for row in entry["policies"].values():
+            cells = " | ".join(_cell(row["cells"][c]) for c in CATEGORIES)
+            lines.append(f"| {row['label']} | {cells} | {_cell(row['total'])} |")
+        lines += ["", "| pair | " + " | ".join(titles) + " | Total |", "|---|" + "---:|" * (len(titles) + 1)]
+        for pair in entry["pairs"]:
+            name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
+            cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
+            lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def name_policies(root: Path) -> None:
+    """Name each policy in the copied reports from where they are committed (the reports were
+    written in a work folder and name the run relative to it)."""
+    from libero_bench.evaluation.eval_report import eval_markdown
+    from libero_bench.evaluation.libero_plus import plus_markdown
+    from libero_data.runtime.files import write_json, write_text
+
+    for short in TASKS:
+        for kind in KINDS:
+            policy = f"{kind}-{short}"
+            reports = sorted((root / policy).glob("*.json")) + sorted((root / policy).glob("*/report.json"))
+            for report in reports:
+                data = json.loads(report.read_text())
+                data["policy"] = os.path.relpath(RUNS / policy, report.parent.resolve())
+                write_json(report, data)
+                render = plus_markdown if report.name == "libero_plus.json" else eval_markdown
+                write_text(report.with_suffix(".md"), render(data))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--results", default="benchmarks/results/libero_plus", type=Path)
+    args = parser.parse_args()
+    name_policies(args.results)
+    report = summary(args.results)
+    (args.results / "summary.json").write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
+    (args.results / "summary.md").write_text(markdown(report))
+    print(markdown(report))
+
+
+if __name__ == "__main__":
+    main()
