@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from pathlib import Path
 from typing import Any
 
@@ -138,20 +137,11 @@ def markdown(report: dict[str, Any]) -> str:
 def name_policies(root: Path) -> None:
     """Name each policy in the copied reports from where they are committed (the reports were
     written in a work folder and name the run relative to it)."""
-    from libero_bench.evaluation.eval_report import eval_markdown
+    from benchmarks.libero_pro_report import rename_reports
     from libero_bench.evaluation.libero_plus import plus_markdown
-    from libero_data.runtime.files import write_json, write_text
 
-    for short in TASKS:
-        for kind in KINDS:
-            policy = f"{kind}-{short}"
-            reports = sorted((root / policy).glob("*.json")) + sorted((root / policy).glob("*/report.json"))
-            for report in reports:
-                data = json.loads(report.read_text())
-                data["policy"] = os.path.relpath(RUNS / policy, report.parent.resolve())
-                write_json(report, data)
-                render = plus_markdown if report.name == "libero_plus.json" else eval_markdown
-                write_text(report.with_suffix(".md"), render(data))
+    policies = [f"{kind}-{short}" for short in TASKS for kind in KINDS if (root / f"{kind}-{short}").is_dir()]
+    rename_reports(root, policies, "libero_plus.json", plus_markdown)
 
 
 def main() -> None:

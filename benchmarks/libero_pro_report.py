@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -141,19 +142,27 @@ def markdown(report: dict[str, Any]) -> str:
 def name_policies(root: Path) -> None:
     """Name each policy in the copied reports from where they are committed: the reports were
     written in a work folder, and name the run relative to it."""
-    from libero_bench.evaluation.eval_report import eval_markdown
     from libero_bench.evaluation.libero_pro import pro_markdown
+
+    rename_reports(root, POLICIES, "libero_pro.json", pro_markdown)
+
+
+def rename_reports(
+    root: Path, policies: Iterable[str], table: str, render_table: Callable[[Any], str]
+) -> None:
+    """In ``root/<policy>/``, the policy named from its committed run folder in the table (``table``,
+    re-rendered by ``render_table``) and in each suite's ``report.json`` (re-rendered as an
+    evaluation report)."""
+    from libero_bench.evaluation.eval_report import eval_markdown
     from libero_data.runtime.files import write_json, write_text
 
-    for policy in POLICIES:
+    for policy in policies:
         for report in sorted((root / policy).glob("*.json")) + sorted((root / policy).glob("*/report.json")):
             summary = json.loads(report.read_text())
             summary["policy"] = os.path.relpath(RUNS / policy, report.parent.resolve())
             write_json(report, summary)
-            if report.name == "libero_pro.json":
-                write_text(report.with_suffix(".md"), pro_markdown(summary))
-            else:
-                write_text(report.with_suffix(".md"), eval_markdown(summary))
+            render = render_table if report.name == table else eval_markdown
+            write_text(report.with_suffix(".md"), render(summary))
 
 
 def main() -> None:

@@ -144,12 +144,7 @@ def chart(summary: dict[str, Any], path: Path) -> None:
     for i, start in enumerate(kinds):
         colour = colours[start]
         x = np.arange(len(rows)) + (i - (len(kinds) - 1) / 2) * width
-        y = np.array([r[start]["rate"] if r[start] else math.nan for r in rows])
-        # Clipped at 0: a Wilson bound can lie a rounding error on the wrong side of the rate.
-        low = np.array([max(r[start]["rate"] - r[start]["low"], 0.0) if r[start] else 0 for r in rows])
-        high = np.array([max(r[start]["high"] - r[start]["rate"], 0.0) if r[start] else 0 for r in rows])
-        ax.bar(x, y, width=width, color=colour, label=f"{start} starts")
-        ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=3)
+        interval_bars(ax, x, [r[start] for r in rows], width, f"{start} starts", colour=colour)
     ax.set_xticks(range(len(rows)), [str(i) for i in range(len(rows))])
     ax.set_xlabel("task")
     ax.set_ylim(0, 1.05)
@@ -159,3 +154,17 @@ def chart(summary: dict[str, Any], path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def interval_bars(
+    ax: Any, x: Any, cells: list[dict[str, Any] | None], width: float, label: str, colour: str | None = None
+) -> None:
+    """Bars of success rates with their Wilson intervals; a cell without rollouts (None or n = 0)
+    draws nothing."""
+    present = [c if c and c.get("n") else None for c in cells]
+    y = np.array([c["rate"] if c else math.nan for c in present], dtype=float)
+    # Clipped at 0: a Wilson bound can lie a rounding error on the wrong side of the rate.
+    low = np.array([max(c["rate"] - c["low"], 0.0) if c else 0.0 for c in present])
+    high = np.array([max(c["high"] - c["rate"], 0.0) if c else 0.0 for c in present])
+    ax.bar(x, y, width=width, color=colour, label=label)
+    ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=3)

@@ -207,6 +207,8 @@ def plus_chart(table: dict[str, Any], path: Path) -> None:
     matplotlib.use("Agg", force=True)
     import matplotlib.pyplot as plt
 
+    from libero_bench.evaluation.eval_report import interval_bars
+
     columns = [*CATEGORIES, "total"]
     rows = table["rows"]
     width = 0.8 / len(rows)
@@ -214,11 +216,7 @@ def plus_chart(table: dict[str, Any], path: Path) -> None:
     for k, row in enumerate(rows):
         cells = [row["cells"][c] if c != "total" else row["total"] for c in columns]
         x = np.arange(len(columns)) + (k - (len(rows) - 1) / 2) * width
-        y = np.array([c["rate"] if c["n"] else np.nan for c in cells], dtype=float)
-        low = np.array([max(c["rate"] - c["low"], 0.0) if c["n"] else 0.0 for c in cells])
-        high = np.array([max(c["high"] - c["rate"], 0.0) if c["n"] else 0.0 for c in cells])
-        ax.bar(x, y, width=width, label=row["suite"])
-        ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=2)
+        interval_bars(ax, x, cells, width, row["suite"])
     ax.set_xticks(range(len(columns)), [TITLES.get(c, "Total") for c in columns], fontsize=8)
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success (95% Wilson)")

@@ -198,18 +198,15 @@ def pro_chart(table: dict[str, Any], path: Path) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from libero_bench.evaluation.eval_report import interval_bars
+
     columns = list(COLUMNS)
     rows = table["rows"]
     width = 0.8 / len(columns)
     fig, ax = plt.subplots(figsize=(2.0 + 1.6 * len(rows), 3.2), dpi=120)
     for i, column in enumerate(columns):
         x = np.arange(len(rows)) + (i - (len(columns) - 1) / 2) * width
-        cells = [r["columns"].get(column) for r in rows]
-        y = np.array([c["rate"] if c else np.nan for c in cells])
-        low = np.array([max(c["rate"] - c["low"], 0.0) if c else 0.0 for c in cells])
-        high = np.array([max(c["high"] - c["rate"], 0.0) if c else 0.0 for c in cells])
-        ax.bar(x, y, width=width, label=column)
-        ax.errorbar(x, y, yerr=np.vstack([low, high]), fmt="none", ecolor="k", capsize=2)
+        interval_bars(ax, x, [r["columns"].get(column) for r in rows], width, column)
     ax.set_xticks(range(len(rows)), [r["suite"] for r in rows])
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success (95% Wilson)")
