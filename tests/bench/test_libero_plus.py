@@ -61,6 +61,7 @@ def test_the_raw_prompt_is_their_file_name(plus: Path) -> None:
 
 
 @pytest.mark.sim
+@pytest.mark.slow  # six scenes built through the command line (~50 s)
 def test_eval_benchmark_libero_plus_per_category_writes_its_table(plus: Path, tmp_path: Path) -> None:
     server = RecordingServer()
     with server.running():

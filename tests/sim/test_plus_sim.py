@@ -181,3 +181,30 @@ def test_a_light_task_takes_its_lights_from_the_assets_scene(
     obs = _start(task)
     assert obs["agentview"].mean() < clean["agentview"].mean() - 10  # dimmer
     assert np.array_equal(obs["sim_state"], clean["sim_state"])
+
+
+@pytest.mark.slow  # an expert episode searched and rendered (~40 s)
+def test_generate_makes_a_demonstration_of_a_robot_task(plus: Path, tmp_path: Path) -> None:
+    import json
+    import subprocess
+    import sys
+
+    task, info = _first("robot")
+    args = [sys.executable, "-m", "libero_data.cli", "generate", "--plus", str(plus), "--suite", SUITE]
+    args += [
+        "--tasks",
+        str(task.index),
+        "--episodes-per-task",
+        "1",
+        "--image-size",
+        "32",
+        "--out",
+        str(tmp_path / "d"),
+    ]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    rows = (tmp_path / "d" / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    (row,) = [json.loads(line) for line in rows]  # kept: the expert found it within its attempts
+    assert row["task_name"] == info.parsed.name and row["suite"] == SUITE
+    card = (tmp_path / "d" / "README.md").read_text()
+    assert f"robot {info.parsed.robot}" in card and "libero-data/plus-libero_object" in card
