@@ -145,8 +145,8 @@ PlusClassification = Annotated[
     Path | None,
     typer.Option(
         "--plus-classification",
-        help="Their task_classification.json (in their checkout's libero/libero/benchmark/): each task's "
-        "difficulty, by which --per-category stratifies.",
+        help="Their task_classification.json: each task's difficulty, by which --per-category stratifies "
+        "(default: the one in their checkout given as --plus; the wheel has none).",
     ),
 ]
 EvalTasks = Annotated[

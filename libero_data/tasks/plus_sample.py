@@ -86,15 +86,29 @@ def _sample(
     return out
 
 
-def read_difficulty(path: str | Path) -> dict[str, int]:
-    """Task name -> difficulty level 1-5 from their ``task_classification.json`` (tasks without a
-    level are left out)."""
-    from libero_data.runtime.files import read_json
+#: Where their checkout keeps the task classification (relative to their package folder).
+CLASSIFICATION = "benchmark/task_classification.json"
 
-    data = read_json(Path(path))
+
+def read_difficulty(path: str | Path | None = None) -> dict[str, int]:
+    """Task name -> difficulty level 1-5 from their ``task_classification.json``: the file at
+    ``path``, else the one in their checkout (``$LIBERO_DATA_PLUS``), else none (the wheel has
+    none). Tasks without a level are left out."""
+    import json
+
+    from libero_data.runtime.files import read_json
+    from libero_data.tasks.plus import plus_files
+
+    if path is not None:
+        data, where = read_json(Path(path)), str(path)
+    else:
+        files = plus_files()
+        if not files.exists(CLASSIFICATION):
+            return {}
+        data, where = json.loads(files.read(CLASSIFICATION)), files.where(CLASSIFICATION)
     if not isinstance(data, dict):
         raise InputError(
-            f"{path} is not LIBERO-Plus's task classification (a suite -> tasks object)",
+            f"{where} is not LIBERO-Plus's task classification (a suite -> tasks object)",
             field="plus_classification",
         )
     levels: dict[str, int] = {}

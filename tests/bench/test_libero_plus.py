@@ -99,3 +99,15 @@ def test_eval_benchmark_libero_plus_per_category_writes_its_table(plus: Path, tm
     assert (tmp_path / "plus" / "libero_plus.png").is_file()
     prompts = {r["prompt"] for requests in server.requests.values() for r in requests}
     assert prompts and not any("initstate" in p or " view " in p for p in prompts)
+
+
+def test_difficulty_comes_from_their_classification(plus: Path, tmp_path: Path) -> None:
+    from libero_data.tasks.plus_sample import read_difficulty
+
+    assert read_difficulty() == {}  # the wheel carries none
+    path = tmp_path / "task_classification.json"
+    entries = [{"id": 1, "name": "a", "category": "Sensor Noise", "difficulty_level": 3}]
+    path.write_text(
+        json.dumps({"libero_object": [*entries, {"id": 2, "name": "b", "difficulty_level": None}]})
+    )
+    assert read_difficulty(path) == {"a": 3}
