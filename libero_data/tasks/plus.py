@@ -203,3 +203,20 @@ def file_name_prompt(task: Any) -> str:
     if plus_base(task.suite) is not None and parse_name(task.name).category == "language":
         return str(task.language)
     return their_prompt(task.name)
+
+
+#: Categories whose tasks move nothing LIBERO's task moves: the same physics, other pixels or words.
+SAME_PHYSICS = ("camera", "language", "light", "background", "noise")
+
+
+def episode_owner(task: Any) -> tuple[str, str]:
+    """The (suite, task name) whose demonstrations ``task`` shares: for a LIBERO-Plus task whose
+    category changes only what is seen or said (:data:`SAME_PHYSICS`), LIBERO's task it was made
+    from (their BDDL of it is LIBERO's, byte for byte), so its expert episodes are that task's,
+    rendered its own way; every other task owns its own."""
+    base = plus_base(task.suite)
+    if base is not None:
+        parsed = parse_name(task.name)
+        if parsed.category in SAME_PHYSICS:
+            return base, parsed.base
+    return str(task.suite), str(task.name)

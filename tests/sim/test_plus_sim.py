@@ -208,3 +208,32 @@ def test_generate_makes_a_demonstration_of_a_robot_task(plus: Path, tmp_path: Pa
     assert row["task_name"] == info.parsed.name and row["suite"] == SUITE
     card = (tmp_path / "d" / "README.md").read_text()
     assert f"robot {info.parsed.robot}" in card and "libero-data/plus-libero_object" in card
+
+
+@pytest.mark.slow  # two expert episodes searched and rendered (~80 s)
+def test_a_camera_task_s_demonstration_is_libero_s_seen_from_elsewhere(plus: Path, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    import pyarrow.parquet as pq
+
+    task, _info = _first("camera")
+    base = next(t.index for t in _suite("libero_object") if t.name == BASE)
+    actions = {}
+    for name, suite, index in (("plus", SUITE, task.index), ("libero", "libero_object", base)):
+        args = [sys.executable, "-m", "libero_data.cli", "generate", "--plus", str(plus), "--suite", suite]
+        args += [
+            "--tasks",
+            str(index),
+            "--episodes-per-task",
+            "1",
+            "--image-size",
+            "32",
+            "--out",
+            str(tmp_path / name),
+        ]
+        done = subprocess.run(args, capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr[-2000:]
+        (chunk,) = sorted((tmp_path / name / "data").rglob("*.parquet"))
+        actions[name] = pq.read_table(chunk).column("action").to_pylist()
+    assert actions["plus"] == actions["libero"]

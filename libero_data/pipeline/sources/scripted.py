@@ -10,6 +10,7 @@ from libero_data.pipeline.request import STORED_INITS
 from libero_data.pipeline.sources.base import CardPart, DemoSource, EpisodeRecord, register_source
 from libero_data.seeding import demo_key, episode_seeds
 from libero_data.sim.arm import ARM_INIT_NOISE
+from libero_data.tasks.plus import episode_owner
 
 if TYPE_CHECKING:
     from libero_data.experts.expert import Expert
@@ -56,9 +57,7 @@ def search_slot(
     machine = machine_fingerprint()
     failures: list[str] = []
     for attempt in range(request.max_attempts):
-        reset_seed, expert_seed = episode_seeds(
-            request.seed, demo_key(task.suite, task.name, slot.k), attempt
-        )
+        reset_seed, expert_seed = episode_seeds(request.seed, demo_key(*episode_owner(task), slot.k), attempt)
         index = request.stored_start(slot.k, 0 if stored is None else len(stored))
         if index is not None and stored is not None:
             init_index, init = index, stored[index]
