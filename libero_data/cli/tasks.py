@@ -99,12 +99,18 @@ def _plus_tasks(suite: str | None, category: str | None, as_json: bool) -> None:
     out = console()
     if suite is None:
         table = Table(title="LIBERO-Plus (tasks per category)", title_justify="left")
-        for column in ("suite", *CATEGORIES, "total"):
+        for column in ("suite", *CATEGORIES, "total", "runs here"):
             table.add_column(column, justify="left" if column == "suite" else "right")
         for base in BASES:
             counts = Counter(i.category for i in plus_infos(PREFIX + base))
-            table.add_row(PREFIX + base, *(str(counts[c]) for c in CATEGORIES), str(sum(counts.values())))
+            runs = sum(1 for t in get_suite(PREFIX + base).tasks if not t.missing)
+            table.add_row(
+                PREFIX + base, *(str(counts[c]) for c in CATEGORIES), str(sum(counts.values())), str(runs)
+            )
         out.print(table)
+        say(
+            "'runs here': without their assets (--plus-assets) the others are refused, naming the file they need"
+        )
         return
     tasks = get_suite(suite).tasks
     rows = [(t, i) for t, i in zip(tasks, plus_infos(suite), strict=True) if category in (None, i.category)]
@@ -120,6 +126,7 @@ def _plus_tasks(suite: str | None, category: str | None, as_json: bool) -> None:
                         "language": t.language,
                         "their_prompt": i.their_prompt,
                         "problem": i.problem_class,
+                        "missing": t.missing,
                     }
                 )
             )

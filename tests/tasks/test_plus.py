@@ -197,3 +197,22 @@ def test_tasks_that_move_nothing_share_libero_s_episodes(plus: Path) -> None:
     files = plus_files()
     for task in get_suite("libero_object").tasks:
         assert files.read(f"bddl_files/libero_object/{task.name}.bddl") == task.bddl_path.read_bytes()
+
+
+def test_the_command_line_lists_their_suites_and_refuses_other_files(plus: Path, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "libero_data.cli", "tasks", *args]
+        return subprocess.run(command, capture_output=True, text=True, timeout=300)
+
+    listed = cli("--plus", str(plus))
+    assert listed.returncode == 0, listed.stderr
+    assert "plus/libero_object" in listed.stdout and "2518" in listed.stdout and "1827" in listed.stdout
+    (tmp_path / "not-theirs").mkdir()
+    refused = cli("--plus", str(tmp_path / "not-theirs"))
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert (
+        refused.stderr.strip().startswith("error: LIBERO-Plus:") and "holds no benchmark/" in refused.stderr
+    )
