@@ -17,7 +17,8 @@ perturbation comment: camera, arm start and image noise travel in the file, so i
 reproduces the task) and its init states as NumPy arrays. The instruction a policy gets
 (``Task.language``) is LIBERO's instruction of the base task, or the rewritten one for
 ``language`` tasks; their own benchmark builds most instructions from the file name, suffix
-included (``... basket view 0 0 100 0 0 initstate 358``): :attr:`PlusTask.their_prompt`.
+included (``... basket view 0 0 100 0 0 initstate 358``): :attr:`PlusTaskInfo.their_prompt`,
+what an evaluation with ``prompt="file-name"`` sends.
 """
 
 from __future__ import annotations
