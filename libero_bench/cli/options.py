@@ -136,7 +136,7 @@ PlusPrompt = Annotated[
     str,
     typer.Option(
         "--plus-prompt",
-        help="--benchmark libero-plus: 'clean' sends each task's instruction; 'raw' sends what their benchmark "
+        help="LIBERO-Plus tasks: 'clean' sends each task's instruction; 'raw' sends what their benchmark "
         "sends, the task's file name as words with the perturbation's suffix ('... basket view 0 0 100 0 0 "
         "initstate 358'), for comparison.",
     ),

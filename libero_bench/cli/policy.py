@@ -4,7 +4,7 @@ simulator; ``libero-bench serve``: our policies and LeRobot's behind openpi's we
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -93,10 +93,8 @@ def eval_cmd(
     libero-plus (with --plus) LIBERO-Plus's.
     """
     quiet_environment()
-    from libero_bench.evaluation.policy_eval import EvalRequest, eval_markdown, evaluate_policy
+    from libero_bench.evaluation.policy_eval import EvalRequest
     from libero_bench.rollouts.loop import RolloutResources
-    from libero_bench.rollouts.policy_kinds import policy_source
-    from libero_bench.rollouts.protocol import get_protocol
     from libero_data.errors import InputError
     from libero_data.runtime.jobs import JobPlacement
     from libero_data.tasks.horizons import parse_step_limit
@@ -107,50 +105,40 @@ def eval_cmd(
         raise InputError("name the evaluation folder", field="out")
     execution = RolloutResources(JobPlacement(executor, workers, ray_address), batch_size, device)
     use_plus(plus, plus_assets)
+    shared = {
+        "max_steps": parse_step_limit(max_steps),
+        "render_quality": render_quality,
+        "image_size": image_size,
+        "replan_steps": replan_steps,
+    }
+    chosen, refs = policy_or_server(policy, server), split_list(tasks)
     if benchmark == "libero-plus":
-        _libero_plus(
-            policy_or_server(policy, server),
-            split_list(tasks),
-            out,
-            per_category=per_category,
-            seed=seed,
-            prompt=_plus_prompt(plus_prompt),
-            classification=plus_classification,
-            max_steps=parse_step_limit(max_steps),
-            render_quality=render_quality,
-            image_size=image_size,
-            replan_steps=replan_steps,
-            execution=execution,
-            keep_work=keep_work,
-        )
-        return
-    if benchmark is not None:
-        _libero_pro(
-            policy_or_server(policy, server),
-            split_list(tasks),
-            out,
+        plus_options = {"per_category": per_category, "seed": seed, "prompt": _plus_prompt(plus_prompt)}
+        run = {"execution": execution, "keep_work": keep_work, **shared, **plus_options}
+        _libero_plus(chosen, refs, out, classification=plus_classification, **run)
+    elif benchmark is not None:
+        run = {"execution": execution, "keep_work": keep_work, **shared}
+        _libero_pro(chosen, refs, out, trials=trials, benchmark=benchmark, **run)
+    else:
+        request = EvalRequest(
+            chosen,
+            tuple(refs),
+            stored,
+            heldout,
+            protocol=protocol,
             trials=trials,
-            max_steps=parse_step_limit(max_steps),
-            render_quality=render_quality,
-            image_size=image_size,
-            replan_steps=replan_steps,
-            execution=execution,
-            benchmark=benchmark,
-            keep_work=keep_work,
+            prompt=_plus_prompt(plus_prompt),
+            **shared,  # type: ignore[arg-type]
         )
-        return
-    request = EvalRequest(
-        policy_or_server(policy, server),
-        tuple(split_list(tasks)),
-        stored,
-        heldout,
-        max_steps=parse_step_limit(max_steps),
-        render_quality=render_quality,
-        image_size=image_size,
-        replan_steps=replan_steps,
-        protocol=protocol,
-        trials=trials,
-    )
+        _evaluate(request, out, execution, keep_work)
+
+
+def _evaluate(request: Any, out: Path, execution: Any, keep_work: bool) -> None:
+    """One evaluation (not a benchmark's table): the rollouts, the report, the chart."""
+    from libero_bench.evaluation.policy_eval import eval_markdown, evaluate_policy
+    from libero_bench.rollouts.policy_kinds import policy_source
+    from libero_bench.rollouts.protocol import get_protocol
+
     chosen = get_protocol(request.protocol)
     source = policy_source(
         request.policy, request.image_size, request.replan_steps, chosen.request
