@@ -114,6 +114,26 @@ def test_language_changes_the_prompt_only(clean: dict[str, Any]) -> None:
     assert _differs(obs["agentview"], clean["agentview"]) < 0.5
 
 
+def test_layout_starts_the_objects_elsewhere(clean: dict[str, Any]) -> None:
+    from libero_data.tasks import get_suite
+
+    tasks = get_suite(SUITE).tasks
+    task = next(
+        tasks[i.index]
+        for i in plus_infos(SUITE)
+        if i.parsed.base == BASE and i.parsed.variant.startswith("level5")
+    )
+    assert task.init_states().shape[0] == 1  # their one start of it
+    obs = _start(task)
+    moved = [
+        float(np.linalg.norm(obs["object_poses"][name][:2] - pose[:2]))
+        for name, pose in clean["object_poses"].items()
+        if name in obs["object_poses"] and name.endswith("_1")
+    ]
+    assert max(moved) > 0.05  # some object starts more than 5 cm away
+    assert obs["language"] == clean["language"]  # the same instruction
+
+
 def test_in_libero_s_loop_the_stored_state_wins_and_the_controller_pulls_back(plus: Path) -> None:
     """Their evaluation writes stored init state 0 over the perturbed arm (set_init_state); the
     controller, which read the perturbed pose at the reset, then pulls the end effector toward it
