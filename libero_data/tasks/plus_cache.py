@@ -46,7 +46,10 @@ def materialize(
 ) -> tuple[list[Task], list[PlusTaskInfo]]:
     """The tasks of ``suite`` (their ``names`` in order), written under ``folder`` where missing;
     a task's BDDL under ``bddl/<assets>/`` (its scene's files depend on the assets folder given)."""
-    key = "libero" if assets is None else hashlib.sha256(str(assets).encode()).hexdigest()[:12]
+    # a folder per format and assets folder: a file written by another format is never reused
+    key = f"v{FORMAT}-" + (
+        "libero" if assets is None else hashlib.sha256(str(assets).encode()).hexdigest()[:12]
+    )
     index = folder / key / f"{base}.json"
     if index.is_file():
         try:
