@@ -33,9 +33,6 @@ from libero_data.tasks.plus import CATEGORIES, PREFIX, TITLES
 from libero_data.tasks.plus_sample import plus_plan
 
 BENCHMARK = "libero-plus"
-#: What LIBERO-Plus reports (their README's table, totals pooled over all 10,030 tasks): for placing
-#: ours beside theirs.
-REPORTED_TOTALS = {"OpenVLA": 15.6, "pi0": 53.6, "pi0-FAST": 61.6, "OpenVLA-OFT": 69.6, "OpenVLA-OFT+": 79.6}
 
 
 def evaluate_libero_plus(

@@ -28,14 +28,12 @@ def apply_scene(raw: Any, p: Perturbation) -> None:
 
 
 def start_robot(raw: Any, p: Perturbation, reset_seed: int) -> bool:
-    """Move the arm's start for this reset as ``p`` says; whether it moved it."""
-    if p.kind == PLUS:
-        return _hooks(p.kind).start_robot(raw, p, reset_seed)
-    kind = get_kind(p.kind)
-    if type(kind).start_robot is Kind.start_robot:
+    """Move the arm's start for this reset as ``p`` says; whether it moved it (a kind without the
+    hook never does; a hook that returns False did not this time)."""
+    hooks = _hooks(p.kind)
+    if type(hooks).start_robot is Kind.start_robot:
         return False
-    kind.start_robot(raw, p, reset_seed)
-    return True
+    return hooks.start_robot(raw, p, reset_seed) is not False
 
 
 def observe(obs: dict[str, Any], p: Perturbation, cameras: tuple[str, ...]) -> None:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from libero_data.bddl.parser import PERTURBATION_MARK
 from libero_data.errors import FileFormatError, TaskLookupError
-from libero_data.runtime.files import cache_root
+from libero_data.runtime.files import cache_root, save_npz
 from libero_data.tasks.plus import (
     BASES,
     PREFIX,
@@ -63,10 +63,13 @@ def materialize(
     infos: list[PlusTaskInfo] = []
     rows: list[dict[str, Any]] = []
     written_inits: set[str] = set()
+    texts: dict[str, str] = {}  # their BDDL files by path: most tasks share their base task's
     for i, name in enumerate(names):
         parsed = parse_name(name)
         rel = f"bddl_files/{base}/{parsed.bddl_name}"
-        text = files.read(rel).decode()
+        if rel not in texts:
+            texts[rel] = files.read(rel).decode()
+        text = texts[rel]
         problem = _PROBLEM.search(text)
         sentence = _LANGUAGE.search(text)
         if problem is None or sentence is None:
@@ -82,7 +85,7 @@ def materialize(
         init_rel = parsed.init_file(base)
         init = folder / "init" / Path(init_rel).relative_to("init_files").with_suffix(".npz")
         if init_rel not in written_inits and not init.is_file():
-            _save_states(init, files.init_states(init_rel))
+            save_npz(init, states=files.init_states(init_rel))
         written_inits.add(init_rel)
         info = PlusTaskInfo(suite, i, parsed, language, prompt, problem.group(1))
         tasks.append(Task(suite, i, name, language, bddl, init, missing))
@@ -215,16 +218,6 @@ def _write(path: Path, data: bytes) -> None:
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
     tmp.write_bytes(data)
     os.replace(tmp, path)
-
-
-def _save_states(path: Path, states: Any) -> None:
-    import io
-
-    import numpy as np
-
-    buffer = io.BytesIO()
-    np.savez(buffer, states=np.asarray(states, dtype=np.float64))
-    _write(path, buffer.getvalue())
 
 
 def plus_suite(name: str, source: str | Path | None = None) -> Suite:
