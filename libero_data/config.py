@@ -11,11 +11,11 @@ saved cheaply.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-from libero_data.errors import ConfigError
+from libero_data.errors import ConfigError, InputError
 
 
 @dataclass(frozen=True)
@@ -94,3 +94,29 @@ class Config:
     def replace(self, **changes: Any) -> Self:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
+
+    def with_assignments(
+        self, assignments: Sequence[str], *, what: str, field: str, fixed: tuple[str, ...] = ()
+    ) -> Self:
+        """A copy with ``name=value`` assignments applied, values read as JSON, else as text (a
+        command line's ``--set``); ``what`` names the config in the one sentence a bad one gets,
+        ``field`` the option, and ``fixed`` fields may not be set."""
+        import json
+
+        fields = {f.name for f in dataclasses.fields(self)} - set(fixed)
+        changes: dict[str, Any] = {}
+        for item in assignments:
+            name, sep, raw = item.partition("=")
+            name = name.strip()
+            if not sep or not name:
+                raise InputError(f"a {what} setting takes field=value, got {item!r}", field=field)
+            if name not in fields:
+                raise InputError(
+                    f"the {what} has no field {name!r}; fields: {', '.join(sorted(fields))}", field=field
+                )
+            try:
+                value = json.loads(raw)
+            except json.JSONDecodeError:
+                value = raw
+            changes[name] = tuple(value) if isinstance(value, list) else value
+        return self.replace(**changes) if changes else self

@@ -44,6 +44,14 @@ Overrides = Annotated[
     list[str] | None,
     typer.Option("--set", help="Override a preset field, e.g. --set eval_rollouts=5 (repeatable)."),
 ]
+AlgoSettings = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--algo-set",
+        help="Set a field of the algorithm's config, e.g. --algo-set penalty_weight=5000 (EWC's lambda) or "
+        "--algo-set prune_fraction=0.5 (PackNet); repeatable. Recorded in the run's config.",
+    ),
+]
 Mix = Annotated[
     list[Path] | None,
     typer.Option(
@@ -101,6 +109,7 @@ def run_cmd(
     ] = 1,
     init_checkpoint: InitCheckpoint = None,
     overrides: Overrides = None,
+    algo_settings: AlgoSettings = None,
     render_quality: EvalRenderQuality = None,
     mix: Mix = None,
     mix_weight: MixWeight = 0.5,
@@ -132,6 +141,7 @@ def run_cmd(
         seed=seed,
         init_checkpoint=init_checkpoint,
         mix=tuple(mix or ()),
+        algo_settings=tuple(algo_settings or ()),
         mix_weight=mix_weight,
     )
     with console().status("reading the dataset and embedding the tasks"):

@@ -46,6 +46,7 @@ class RunRequest(Config):
     init_checkpoint: Path | None = None
     mix: tuple[Path, ...] = ()  # datasets with more episodes of the tasks or their variants (mixing)
     mix_weight: float = DEFAULT_WEIGHT  # the share of each epoch drawn from them
+    algo_settings: tuple[str, ...] = ()  # field=value of the algorithm's config (EWC's penalty_weight, ...)
 
 
 @dataclass(frozen=True)
@@ -87,10 +88,12 @@ def select_tasks(source: DemoDataset, tasks: Sequence[str] | None, order: int | 
     return chosen
 
 
-def _algo_for(name: str, size: str, seed: int) -> Algo:
+def _algo_for(name: str, size: str, seed: int, settings: tuple[str, ...] = ()) -> Algo:
     from libero_bench.algos import algo_config, build_algo
 
-    config = algo_config(name, size)
+    config = algo_config(name, size).with_assignments(
+        settings, what=f"{name} algorithm", field="algo_settings"
+    )
     if any(f.name == "seed" for f in dataclasses.fields(config)):
         config = config.replace(seed=seed)
     return build_algo(config)
@@ -218,7 +221,7 @@ def plan_run(request: RunRequest) -> RunPlan:
         task_emb_dim=int(embs.shape[1]),
         **({} if preset.augment is None else {"augment": bool(preset.augment)}),
     )
-    algo = _algo_for(request.algo, preset.algo_size, seed)
+    algo = _algo_for(request.algo, preset.algo_size, seed, request.algo_settings)
     if request.init_checkpoint is not None:
         _check_initial_weights(request.init_checkpoint, pconfig, request.policy)
     mix = (

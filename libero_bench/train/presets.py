@@ -9,13 +9,11 @@ optimizer/adam_w, scheduler/cosine_annealing, eval/default, data/default).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from libero_bench.sizes import SIZES
 from libero_data.config import Config
-from libero_data.errors import InputError
 from libero_data.registry import Registry
 from libero_data.rollout import RolloutSettings
 from libero_data.tasks.horizons import SUITE, StepLimit, is_step_limit
@@ -113,25 +111,7 @@ class TrainPreset(Config):
 
     def with_overrides(self, assignments: list[str]) -> TrainPreset:
         """A copy with ``field=value`` assignments applied (values read as JSON, else as text)."""
-        import json
-
-        fields = {f.name for f in dataclasses.fields(self)} - {"name"}
-        changes: dict[str, Any] = {}
-        for item in assignments:
-            name, sep, raw = item.partition("=")
-            name = name.strip()
-            if not sep or not name:
-                raise InputError(f"a preset override takes field=value, got {item!r}", field="set")
-            if name not in fields:
-                raise InputError(
-                    f"the preset has no field {name!r}; fields: {', '.join(sorted(fields))}", field="set"
-                )
-            try:
-                value = json.loads(raw)
-            except json.JSONDecodeError:
-                value = raw
-            changes[name] = tuple(value) if isinstance(value, list) else value
-        return self.replace(**changes) if changes else self
+        return self.with_assignments(assignments, what="preset", field="set", fixed=("name",))
 
     def eval_epochs(self) -> list[int]:
         """Epochs evaluated while learning a task: (0,) eval_every, 2 eval_every, ... up to ``epochs``."""

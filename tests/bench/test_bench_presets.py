@@ -87,3 +87,25 @@ def test_augment_overrides_the_policy_default_and_runs_made_before_it_resume(tin
     )
     with pytest.raises(SettingsChanged):  # but not as augmented
         Trainer(on, tmp_path / "run").prepare()
+
+
+def test_an_algorithm_setting_is_part_of_the_run(tiny_dataset, tmp_path) -> None:
+    from libero_bench.train.trainer import RunRequest, Trainer, plan_run
+    from libero_data.errors import SettingsChanged
+
+    smoke = get_preset("smoke")
+    weaker = plan_run(
+        RunRequest(
+            data=tiny_dataset,
+            algo="ewc",
+            policy="resnet_t",
+            preset=smoke,
+            algo_settings=("penalty_weight=5000",),
+        )
+    )
+    assert weaker.algo_config["penalty_weight"] == 5000
+    Trainer(weaker, tmp_path / "run").prepare()
+    default = plan_run(RunRequest(data=tiny_dataset, algo="ewc", policy="resnet_t", preset=smoke))
+    assert default.algo_config["penalty_weight"] == 5e4
+    with pytest.raises(SettingsChanged):  # a run is resumed with its own settings only
+        Trainer(default, tmp_path / "run").prepare()

@@ -403,6 +403,14 @@ def test_ray_executor_gives_the_same_results(bench_run: Path, tiny_dataset: Path
         (["--data", "{data}", "--order", "3"], "upstream task orders are for 10 tasks, but the run has 2"),
         (["--data", "{data}", "--set", "epoch=3"], "the preset has no field 'epoch'"),
         (["--data", "{data}", "--set", "epochs=0"], "TrainPreset.epochs must be a positive integer"),
+        (
+            ["--data", "{data}", "--algo", "ewc", "--algo-set", "lam=5"],
+            "the ewc algorithm has no field 'lam'; fields: fisher_batches, gamma, penalty_weight (--algo-set)",
+        ),
+        (
+            ["--data", "{data}", "--algo", "ewc", "--algo-set", "penalty_weight=-1"],
+            "EWCConfig.penalty_weight must be >= 0",
+        ),
         (["--data", "{data}", "--device", "tpu"], "the device must be cpu or cuda, got 'tpu' (--device)"),
     ],
 )
