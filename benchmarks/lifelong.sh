@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# The LIBERO paper's five lifelong algorithms on one sequence of libero_object tasks, on record
+# (issue 59): the same data, seed, step limit and held-out starts for SeqL, ER, EWC, PackNet and MTL.
+#
+#   benchmarks/lifelong.sh [WORK_DIR] [PART]    (WORK_DIR default: ../lifelong-work beside the repository)
+#
+# PART:
+#   data   100 demonstrations of each of libero_object 0, 1, 2 with today's expert (64x64, `fast`
+#          images, LIBERO's sampler starts with the stored states' arm noise), as benchmarks/quick.sh
+#   sweep  the settings the quick preset leaves open, on tasks 0 and 1: EWC's penalty weight
+#          (5e2, 5e3, 5e4: the paper's 5e4 was set for a 10x larger policy) and PackNet's pruned share
+#          with a post-prune fine-tuning as long as a task's training (prune 0.5 and 0.75, 16 epochs)
+#   five   the five algorithms on tasks 0, 1, 2, seed 0 (EWC and PackNet with EWC_WEIGHT and
+#          PACKNET_PRUNE, chosen from the sweep)
+#   seeds  SeqL, ER and PackNet again with seed 1
+#   all    every part in turn
+#
+# Runs go two at a time, one torch thread each (benchmarks/quick.sh says why); each resumes where it
+# stopped when run again; logs in WORK_DIR/logs/. Datasets, checkpoints and rollouts stay in WORK_DIR.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+work=$(realpath -m "${1:-../lifelong-work}")
+part="${2:-all}"
+case "$part" in data | sweep | five | seeds | all) ;; *) echo "lifelong.sh: PART must be data, sweep, five, seeds or all, not '$part'" >&2; exit 2 ;; esac
+preset=${PRESET:-quick}          # PRESET=smoke tries the script end to end in minutes
+episodes=${EPISODES:-100}
+ewc_weight=${EWC_WEIGHT:-5000}
+packnet_prune=${PACKNET_PRUNE:-0.75}
+export OMP_NUM_THREADS=1 SVT_LOG=1
+ld=.venv/bin/libero-data
+lb=.venv/bin/libero-bench
+mkdir -p "$work/logs"
+
+start_run() {  # name tasks algo seed [run options...]
+  local name=$1 tasks=$2 algo=$3 seed=$4
+  shift 4
+  echo "$(date +%H:%M) start $name (log: $work/logs/$name.log)"
+  $lb run --data "$work/object-64" --tasks "$tasks" --algo "$algo" --policy resnet_t --preset "$preset" \
+    --seed "$seed" --workers 2 --threads 1 --out "$work/runs/$name" "$@" >"$work/logs/$name.log" 2>&1
+}
+
+run_all() {  # entries "name|tasks|algo|seed|options", two at a time
+  local pids=() failed=0 entry name tasks algo seed options
+  for entry in "$@"; do
+    while (($(jobs -rp | wc -l) >= 2)); do wait -n || true; done
+    IFS='|' read -r name tasks algo seed options <<<"$entry"
+    # shellcheck disable=SC2086  # the options are words
+    start_run "$name" "$tasks" "$algo" "$seed" $options &
+    pids+=($!)
+  done
+  for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+  ((failed == 0)) || { echo "a run failed; its log in $work/logs says why" >&2; exit 1; }
+}
+
+post_prune=16
+[[ $preset == smoke ]] && post_prune=1
+if [[ $part == data || $part == all ]]; then
+  $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task "$episodes" --image-size 64 \
+    --render-quality fast --workers 2 --seed 0 --out "$work/object-64"
+fi
+if [[ $part == sweep || $part == all ]]; then
+  run_all \
+    "sweep-ewc-500|0,1|ewc|0|--algo-set penalty_weight=500" \
+    "sweep-ewc-5000|0,1|ewc|0|--algo-set penalty_weight=5000" \
+    "sweep-ewc-50000|0,1|ewc|0|--algo-set penalty_weight=50000" \
+    "sweep-packnet-050|0,1|packnet|0|--algo-set prune_fraction=0.5 --algo-set post_prune_epochs=$post_prune" \
+    "sweep-packnet-075|0,1|packnet|0|--algo-set prune_fraction=0.75 --algo-set post_prune_epochs=$post_prune"
+fi
+packnet="--algo-set prune_fraction=$packnet_prune --algo-set post_prune_epochs=$post_prune"
+if [[ $part == five || $part == all ]]; then
+  run_all \
+    "seql-s0|0,1,2|seql|0|" \
+    "er-s0|0,1,2|er|0|" \
+    "ewc-s0|0,1,2|ewc|0|--algo-set penalty_weight=$ewc_weight" \
+    "packnet-s0|0,1,2|packnet|0|$packnet" \
+    "mtl-s0|0,1,2|mtl|0|"
+fi
+if [[ $part == seeds || $part == all ]]; then
+  run_all "seql-s1|0,1,2|seql|1|" "er-s1|0,1,2|er|1|" "packnet-s1|0,1,2|packnet|1|$packnet"
+fi
