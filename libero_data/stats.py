@@ -1,4 +1,5 @@
-"""Binomial statistics for success rates: intervals, and how many successes to expect.
+"""Binomial statistics for success rates: intervals, how many successes to expect, and tests
+of paired outcomes (with Holm's adjustment for a family of them).
 
 Pure functions of counts (no NumPy or SciPy needed). Used by the expert tests, which derive
 their margins from the committed expert table, and by anything that reports a rate over a
@@ -8,6 +9,7 @@ handful of episodes.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -62,3 +64,16 @@ def mcnemar_exact(only_a: int, only_b: int) -> float:
     if n == 0:
         return 1.0
     return min(1.0, 2.0 * binomial_cdf(min(only_a, only_b), n, 0.5))
+
+
+def holm_adjusted(p_values: Sequence[float]) -> list[float]:
+    """Holm's step-down adjustment of a family of p-values, in their given order: a hypothesis
+    is rejected at level alpha when its adjusted p-value is below alpha, which keeps the chance
+    of any false rejection in the family under alpha (no assumption about their dependence)."""
+    order = sorted(range(len(p_values)), key=lambda i: p_values[i])
+    adjusted = [1.0] * len(p_values)
+    running = 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (len(p_values) - rank) * p_values[i]))
+        adjusted[i] = running
+    return adjusted

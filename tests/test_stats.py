@@ -26,3 +26,14 @@ def test_binomial_tail_and_thresholds() -> None:
     assert least_successes(3, 0.5, 0.001) == 0  # nothing can be asserted
     assert starts_needed(0.9, 0.001) == 3 and starts_needed(0.5, 0.001) == 10
     assert starts_needed(1.0, 0.001) == 1 and starts_needed(0.0, 0.001, most=7) == 7
+
+
+def test_holm_adjusted_steps_down_and_keeps_order() -> None:
+    from libero_data.stats import holm_adjusted
+
+    # sorted: 0.01*3 = 0.03, 0.02*2 = 0.04, 0.04*1 = 0.04; then back in the given order
+    assert holm_adjusted([0.04, 0.01, 0.02]) == pytest.approx([0.04, 0.03, 0.04])
+    # never above 1, and monotone in the sorted order even where k*p would fall
+    assert holm_adjusted([0.5, 0.6]) == pytest.approx([1.0, 1.0])
+    assert holm_adjusted([0.001, 0.3, 0.02]) == pytest.approx([0.003, 0.3, 0.04])
+    assert holm_adjusted([]) == []

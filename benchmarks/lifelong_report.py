@@ -1,0 +1,282 @@
+"""The LIBERO paper's five lifelong algorithms on one libero_object sequence, and its four findings
+about them tested on our runs (issue 59). Made from the committed run folders
+(``benchmarks/lifelong.sh``); RESULTS quotes what it writes.
+
+The paper (LIBERO, Table VI, ResNet-T, three seeds) finds on LIBERO-Object: SeqL FWT 0.78, NBT 0.76,
+AUC 0.26; ER 0.67 / 0.43 / 0.44; EWC 0.56 / 0.69 / 0.16; PackNet 0.60 / 0.17 / 0.60; MTL success 0.54.
+Its findings about algorithms, and how each is tested here on the seed-0 runs (every algorithm
+learned the same tasks from the same data and was evaluated from the same starts, so each pair of
+runs is compared start for start with ``libero_bench.analysis.compare``):
+
+1. SeqL has the best forward transfer: SeqL's FWT against ER's, EWC's and PackNet's.
+2. PackNet forgets least (NBT against SeqL's, ER's and EWC's) and leads on LIBERO-Object (AUC
+   against theirs). Its other half, ER beating PackNet on LIBERO-Long, needs that suite: not run.
+3. EWC is worse than SeqL: EWC's FWT and AUC against SeqL's.
+4. ER is robust across suites: needs several suites; one is run here, so it is not tested.
+
+A finding's comparisons form a family; their paired permutation p-values are adjusted by Holm's
+method. A finding is *reproduced* when every comparison goes its way with an adjusted p < 0.05,
+*contradicted* when one goes the other way with an adjusted p < 0.05, and *not resolved at this
+budget* otherwise. Each kind of start (LIBERO's stored init states; held-out placements) gets its
+verdict; the held-out one is the headline (those starts chose no checkpoint).
+
+    python -m benchmarks.lifelong_report [--runs benchmarks/results/lifelong/runs] [--out benchmarks/results/lifelong]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from libero_bench.runs.folder import STARTS
+
+RESULTS = Path(__file__).resolve().parent / "results" / "lifelong"
+ALGOS = ("seql", "er", "ewc", "packnet", "mtl")
+NAMES = {"seql": "SeqL", "er": "ER", "ewc": "EWC", "packnet": "PackNet", "mtl": "MTL"}
+#: The paper's LIBERO-Object row (Table VI, ResNet-T): FWT, NBT, AUC; MTL reports a success rate.
+PAPER = {
+    "seql": {"fwt": 0.78, "nbt": 0.76, "auc": 0.26},
+    "er": {"fwt": 0.67, "nbt": 0.43, "auc": 0.44},
+    "ewc": {"fwt": 0.56, "nbt": 0.69, "auc": 0.16},
+    "packnet": {"fwt": 0.60, "nbt": 0.17, "auc": 0.60},
+    "mtl": {"success": 0.54},
+}
+ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One comparison of a finding: ``subject``'s ``metric`` is higher (``higher``) or lower than
+    ``other``'s."""
+
+    subject: str
+    other: str
+    metric: str
+    higher: bool
+
+
+@dataclass(frozen=True)
+class Finding:
+    key: str
+    text: str
+    claims: tuple[Claim, ...]
+    untested: str = ""  # why (part of) the finding cannot be tested on one suite
+
+
+FINDINGS = (
+    Finding(
+        "seql_best_fwt",
+        "SeqL has the best forward transfer",
+        tuple(Claim("seql", other, "fwt", True) for other in ("er", "ewc", "packnet")),
+    ),
+    Finding(
+        "packnet_forgets_least",
+        "PackNet forgets least (lowest NBT) and leads on LIBERO-Object (highest AUC)",
+        tuple(
+            Claim("packnet", other, metric, metric == "auc")
+            for metric in ("nbt", "auc")
+            for other in ("seql", "er", "ewc")
+        ),
+        untested="its other half, ER beating PackNet on LIBERO-Long, needs LIBERO-Long runs",
+    ),
+    Finding(
+        "ewc_worse_than_seql",
+        "EWC is worse than SeqL (lower FWT and AUC)",
+        (Claim("ewc", "seql", "fwt", False), Claim("ewc", "seql", "auc", False)),
+    ),
+    Finding(
+        "er_robust_across_suites",
+        "ER is robust across suites",
+        (),
+        untested="one suite (libero_object) is run at this budget",
+    ),
+)
+
+
+def seed0_runs(runs: Path) -> dict[str, Path]:
+    """Algorithm -> its seed-0 run folder (``<algo>-s0``)."""
+    found = {algo: runs / f"{algo}-s0" for algo in ALGOS if (runs / f"{algo}-s0" / "results.json").is_file()}
+    missing = [a for a in ALGOS if a not in found]
+    if missing:
+        raise SystemExit(
+            f"{runs} lacks the seed-0 runs of {', '.join(missing)} (benchmarks/lifelong.sh five)"
+        )
+    return found
+
+
+def comparisons(runs: dict[str, Path]) -> dict[str, dict[str, Any]]:
+    """'a-vs-b' -> ``compare_runs(a, b)`` for every pair a finding names."""
+    from libero_bench.analysis.compare import compare_runs
+
+    pairs = sorted({(c.subject, c.other) for f in FINDINGS for c in f.claims})
+    return {f"{a}-vs-{b}": compare_runs(runs[a], runs[b]) for a, b in pairs}
+
+
+def _claim_row(claim: Claim, compared: dict[str, dict[str, Any]], start: str) -> dict[str, Any]:
+    block = compared[f"{claim.subject}-vs-{claim.other}"][start]
+    metric = ((block or {}).get("difference") or {}).get("metrics", {}).get(claim.metric)
+    if metric is None:
+        return {"subject": claim.subject, "other": claim.other, "metric": claim.metric, "tested": False}
+    return {
+        "subject": claim.subject,
+        "other": claim.other,
+        "metric": claim.metric,
+        "tested": True,
+        "claimed": "higher" if claim.higher else "lower",
+        "subject_value": metric["a"],
+        "other_value": metric["b"],
+        "difference": metric["difference"],
+        "low": metric["low"],
+        "high": metric["high"],
+        "p_value": metric["p_value"],
+        "paired": metric["p_value"] is not None,
+        "as_claimed": (metric["difference"] > 0) == claim.higher and metric["difference"] != 0,
+    }
+
+
+def verdict(rows: list[dict[str, Any]]) -> str:
+    """reproduced / contradicted / not resolved, from a family's rows with Holm-adjusted p."""
+    if not rows or not all(r["tested"] for r in rows):
+        return "not tested"
+    significant = [r for r in rows if r["adjusted_p"] < ALPHA]
+    if any(not r["as_claimed"] for r in significant):
+        return "contradicted"
+    if len(significant) == len(rows):
+        return "reproduced"
+    return "not resolved at this budget"
+
+
+def findings(compared: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Each finding's comparisons per kind of start, with Holm-adjusted p-values and a verdict."""
+    from libero_data.stats import holm_adjusted
+
+    out = []
+    for finding in FINDINGS:
+        entry: dict[str, Any] = {"key": finding.key, "text": finding.text, "untested": finding.untested}
+        for start in STARTS:
+            rows = [_claim_row(c, compared, start) for c in finding.claims]
+            tested = [r for r in rows if r["tested"]]
+            # unpaired rows (not evaluated alike) have no p-value: they count as not significant
+            p = [r["p_value"] if r["p_value"] is not None else 1.0 for r in tested]
+            for row, adjusted in zip(tested, holm_adjusted(p), strict=True):
+                row["adjusted_p"] = adjusted
+            entry[start] = {"rows": rows, "verdict": verdict(rows)}
+        out.append(entry)
+    return out
+
+
+def _value(x: float | None) -> str:
+    return "–" if x is None or not math.isfinite(x) else f"{x:.2f}"
+
+
+def _stat(stat: dict[str, Any] | None) -> str:
+    if not stat or stat.get("mean") is None:
+        return "–"
+    if stat.get("low") is None:
+        return f"{stat['mean']:.2f}"
+    return f"{stat['mean']:.2f} [{stat['low']:.2f}, {stat['high']:.2f}]"
+
+
+def table_markdown(report: dict[str, Any]) -> str:
+    """Our five rows (held-out and stored starts) beside the paper's LIBERO-Object row."""
+    lines = [
+        "| algorithm | seeds | starts | FWT (↑) | NBT (↓) | AUC (↑) | final success | paper FWT / NBT / AUC |",
+        "|---|---|---|---:|---:|---:|---:|---|",
+    ]
+    for group in report["groups"]:
+        algo = group["algo"]
+        paper = PAPER.get(algo, {})
+        cited = (
+            f"success {paper['success']:.2f}"
+            if "success" in paper
+            else " / ".join(f"{paper[m]:.2f}" for m in ("fwt", "nbt", "auc"))
+            if paper
+            else "–"
+        )
+        for start in ("heldout", "stored"):
+            numbers = group.get(start)
+            if numbers is None:
+                continue
+            successes = sum(f["successes"] for f in numbers["final"])
+            n = sum(f["n"] for f in numbers["final"])
+            lines.append(
+                f"| {NAMES.get(algo, algo)} | {', '.join(map(str, group['seeds']))} | {start.replace('heldout', 'held out')} | "
+                f"{_stat(numbers['fwt'])} | {_stat(numbers['nbt'])} | {_stat(numbers['auc'])} | "
+                f"{successes}/{n} | {cited} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def findings_markdown(entries: list[dict[str, Any]]) -> str:
+    lines = []
+    for i, entry in enumerate(entries, 1):
+        head = entry["heldout"]["verdict"]
+        lines += [
+            "",
+            f"### {i}. {entry['text']}: {head} (held-out starts); {entry['stored']['verdict']} (stored starts)",
+            "",
+        ]
+        if entry["untested"]:
+            lines += [f"Not tested: {entry['untested']}.", ""]
+        for start in ("heldout", "stored"):
+            rows = [r for r in entry[start]["rows"] if r["tested"]]
+            if not rows:
+                continue
+            lines += [
+                f"{start.replace('heldout', 'Held-out')} starts:".capitalize(),
+                "",
+                "| claim | subject | other | difference [95% interval] | p | Holm p |",
+                "|---|---:|---:|---:|---:|---:|",
+            ]
+            for r in rows:
+                claim = f"{NAMES[r['subject']]} {r['metric'].upper()} {r['claimed']} than {NAMES[r['other']]}"
+                p = "– (not paired)" if r["p_value"] is None else f"{r['p_value']:.3g}"
+                lines.append(
+                    f"| {claim} | {_value(r['subject_value'])} | {_value(r['other_value'])} | "
+                    f"{r['difference']:+.2f} [{r['low']:+.2f}, {r['high']:+.2f}] | {p} | {r['adjusted_p']:.3g} |"
+                )
+            lines.append("")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    from libero_bench.analysis.compare import comparison_markdown
+    from libero_bench.analysis.report import write_report
+    from libero_data.runtime.files import write_json, write_text
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=Path, default=RESULTS / "runs", help="folder of the run folders")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="where report/ and findings.* go")
+    args = parser.parse_args()
+    main_runs = seed0_runs(args.runs)
+    others = sorted(
+        p for p in args.runs.iterdir() if p.name.endswith("-s1") and (p / "results.json").is_file()
+    )
+    report = write_report([*main_runs.values(), *others], args.out / "report")
+    compared = comparisons(main_runs)
+    for name, result in compared.items():
+        for side in ("a", "b"):  # named from the comparison's folder
+            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), args.out.resolve())
+        write_text(args.out / "compare" / f"{name}.md", comparison_markdown(result))
+    entries = findings(compared)
+    write_json(
+        args.out / "findings.json",
+        {"alpha": ALPHA, "paper": PAPER, "findings": entries, "comparisons": compared},
+    )
+    text = (
+        "# The five lifelong algorithms on libero_object 0, 1, 2 (quick preset)\n\n"
+        + table_markdown(report)
+        + "\nIntervals: 95% bootstrap over rollouts (and over seeds where there are two). Paper: LIBERO, Table VI, "
+        "ResNet-T, LIBERO-Object, three seeds (its MTL row is a success rate).\n\n## The paper's findings\n"
+        + findings_markdown(entries)
+    )
+    write_text(args.out / "findings.md", text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()

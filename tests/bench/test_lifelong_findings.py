@@ -1,0 +1,73 @@
+"""The verdicts of benchmarks/lifelong_report.py on the paper's findings: a finding is reproduced
+only when every comparison of its family goes its way after Holm's adjustment, contradicted when
+one goes the other way, and otherwise not resolved."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from benchmarks.lifelong_report import ALGOS, FINDINGS, findings
+
+
+def _compared(values: dict[str, dict[str, float]], p: float) -> dict[str, dict[str, Any]]:
+    """Comparisons as compare_runs gives them, for every pair a finding names, with the metric
+    values given per algorithm and one p-value for every difference."""
+    out: dict[str, dict[str, Any]] = {}
+    for finding in FINDINGS:
+        for claim in finding.claims:
+            a, b = claim.subject, claim.other
+            metrics = {
+                m: {
+                    "a": values[a][m],
+                    "b": values[b][m],
+                    "difference": values[a][m] - values[b][m],
+                    "low": values[a][m] - values[b][m] - 0.1,
+                    "high": values[a][m] - values[b][m] + 0.1,
+                    "p_value": p,
+                }
+                for m in ("fwt", "nbt", "auc")
+            }
+            block = {"difference": {"paired": True, "metrics": metrics}}
+            out[f"{a}-vs-{b}"] = {"stored": block, "heldout": block}
+    return out
+
+
+#: The paper's LIBERO-Object row: each finding holds in it.
+PAPER_LIKE = {
+    "seql": {"fwt": 0.78, "nbt": 0.76, "auc": 0.26},
+    "er": {"fwt": 0.67, "nbt": 0.43, "auc": 0.44},
+    "ewc": {"fwt": 0.56, "nbt": 0.69, "auc": 0.16},
+    "packnet": {"fwt": 0.60, "nbt": 0.17, "auc": 0.60},
+}
+
+
+def _verdicts(values: dict[str, dict[str, float]], p: float) -> dict[str, str]:
+    return {f["key"]: f["heldout"]["verdict"] for f in findings(_compared(values, p))}
+
+
+def test_the_papers_numbers_reproduce_its_findings_when_significant() -> None:
+    assert set(PAPER_LIKE) | {"mtl"} == set(ALGOS)
+    verdicts = _verdicts(PAPER_LIKE, p=0.001)  # 6 comparisons × 0.001 stays under 0.05
+    assert verdicts == {
+        "seql_best_fwt": "reproduced",
+        "packnet_forgets_least": "reproduced",
+        "ewc_worse_than_seql": "reproduced",
+        "er_robust_across_suites": "not tested",
+    }
+
+
+def test_holm_adjustment_can_leave_a_finding_unresolved() -> None:
+    # p = 0.03 each: alone significant, but not two (or three, or six) of them after Holm's adjustment
+    verdicts = _verdicts(PAPER_LIKE, p=0.03)
+    assert verdicts["seql_best_fwt"] == "not resolved at this budget"
+    assert verdicts["packnet_forgets_least"] == "not resolved at this budget"
+    assert verdicts["ewc_worse_than_seql"] == "not resolved at this budget"
+
+
+def test_a_significant_difference_the_other_way_contradicts() -> None:
+    values = {algo: dict(row) for algo, row in PAPER_LIKE.items()}
+    values["ewc"]["fwt"] = 0.95  # EWC transfers forward better than SeqL
+    verdicts = _verdicts(values, p=0.001)
+    assert verdicts["seql_best_fwt"] == "contradicted"
+    assert verdicts["ewc_worse_than_seql"] == "contradicted"
+    assert verdicts["packnet_forgets_least"] == "reproduced"
