@@ -89,7 +89,37 @@ def summary(root: Path) -> dict[str, Any]:
                     }
                 )
         out["tasks"][short] = entry
+    out["pooled"] = _pooled(root, list(out["tasks"]))
     return out
+
+
+def _pooled(root: Path, shorts: list[str]) -> list[dict[str, Any]]:
+    """Each pair over both tasks' LIBERO-Plus tasks together, per category and in total (the
+    tasks are distinct, so their paired outcomes pool into one McNemar test)."""
+    pooled = []
+    for first, second in PAIRS:
+        both = [
+            s
+            for s in shorts
+            if all((root / f"{k}-{s}" / "libero_plus.json").is_file() for k in (first, second))
+        ]
+        if not both:
+            continue
+        a = {s: _outcomes(root, f"{first}-{s}") for s in both}
+        b = {s: _outcomes(root, f"{second}-{s}") for s in both}
+        cells = {
+            c: _paired(
+                {f"{s}/{k}": v for s in both for k, v in a[s][c].items()},
+                {f"{s}/{k}": v for s in both for k, v in b[s][c].items()},
+            )
+            for c in CATEGORIES
+        }
+        total = _paired(
+            {f"{s}/{c}/{k}": v for s in both for c in CATEGORIES for k, v in a[s][c].items()},
+            {f"{s}/{c}/{k}": v for s in both for c in CATEGORIES for k, v in b[s][c].items()},
+        )
+        pooled.append({"first": first, "second": second, "tasks": both, "cells": cells, "total": total})
+    return pooled
 
 
 def _cell(rate: dict[str, Any]) -> str:
@@ -128,6 +158,18 @@ def markdown(report: dict[str, Any]) -> str:
             lines.append(f"| {row['label']} | {cells} | {_cell(row['total'])} |")
         lines += ["", "| pair | " + " | ".join(titles) + " | Total |", "|---|" + "---:|" * (len(titles) + 1)]
         for pair in entry["pairs"]:
+            name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
+            cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
+            lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
+    if report.get("pooled"):
+        lines += [
+            "",
+            "## Both tasks pooled",
+            "",
+            "| pair | " + " | ".join(titles) + " | Total |",
+            "|---|" + "---:|" * (len(titles) + 1),
+        ]
+        for pair in report["pooled"]:
             name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
             cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
             lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
