@@ -10,13 +10,16 @@
 #   sweep  the settings the quick preset leaves open, on tasks 0 and 1: EWC's penalty weight
 #          (5e2, 5e3, 5e4: the paper's 5e4 was set for a 10x larger policy) and PackNet's pruned share
 #          with a post-prune fine-tuning as long as a task's training (prune 0.5 and 0.75, 16 epochs)
-#   five   the five algorithms on tasks 0, 1, 2, seed 0 (EWC and PackNet with EWC_WEIGHT and
-#          PACKNET_PRUNE, chosen from the sweep)
+#   five   the five algorithms on tasks 0, 1, 2, seed 0 (EWC and PackNet with the settings the sweep
+#          kept: the highest held-out AUC, benchmarks/lifelong_report.py --pick; EWC_WEIGHT and
+#          PACKNET_PRUNE override)
 #   seeds  SeqL, ER and PackNet again with seed 1
 #   all    every part in turn
 #
 # Runs go two at a time, one torch thread each (benchmarks/quick.sh says why); each resumes where it
-# stopped when run again; logs in WORK_DIR/logs/. Datasets, checkpoints and rollouts stay in WORK_DIR.
+# stopped when run again; logs in WORK_DIR/logs/. Datasets, checkpoints and rollouts stay in WORK_DIR;
+# each finished run's config, results and timings are copied to benchmarks/results/lifelong/runs/,
+# then the sweep's table (sweep.md) and the report with the paper's findings (findings.md, report/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work=$(realpath -m "${1:-../lifelong-work}")
@@ -24,11 +27,11 @@ part="${2:-all}"
 case "$part" in data | sweep | five | seeds | all) ;; *) echo "lifelong.sh: PART must be data, sweep, five, seeds or all, not '$part'" >&2; exit 2 ;; esac
 preset=${PRESET:-quick}          # PRESET=smoke tries the script end to end in minutes
 episodes=${EPISODES:-100}
-ewc_weight=${EWC_WEIGHT:-5000}
-packnet_prune=${PACKNET_PRUNE:-0.75}
 export OMP_NUM_THREADS=1 SVT_LOG=1
 ld=.venv/bin/libero-data
 lb=.venv/bin/libero-bench
+results=benchmarks/results/lifelong
+[[ $preset == smoke ]] && results=$work/results  # a try of the script commits nothing
 mkdir -p "$work/logs"
 
 start_run() {  # name tasks algo seed [run options...]
@@ -50,6 +53,11 @@ run_all() {  # entries "name|tasks|algo|seed|options", two at a time
   done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   ((failed == 0)) || { echo "a run failed; its log in $work/logs says why" >&2; exit 1; }
+  for entry in "$@"; do  # what the report reads, committed; checkpoints stay in WORK_DIR
+    name=${entry%%|*}
+    mkdir -p "$results/runs/$name"
+    cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
+  done
 }
 
 post_prune=16
@@ -65,8 +73,14 @@ if [[ $part == sweep || $part == all ]]; then
     "sweep-ewc-50000|0,1|ewc|0|--algo-set penalty_weight=50000" \
     "sweep-packnet-050|0,1|packnet|0|--algo-set prune_fraction=0.5 --algo-set post_prune_epochs=$post_prune" \
     "sweep-packnet-075|0,1|packnet|0|--algo-set prune_fraction=0.75 --algo-set post_prune_epochs=$post_prune"
+  .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --sweep --out "$results"
 fi
-packnet="--algo-set prune_fraction=$packnet_prune --algo-set post_prune_epochs=$post_prune"
+if [[ $part == five || $part == seeds || $part == all ]]; then
+  ewc_weight=${EWC_WEIGHT:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick ewc)}
+  packnet_prune=${PACKNET_PRUNE:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick packnet)}
+  echo "EWC penalty weight $ewc_weight, PackNet prune fraction $packnet_prune"
+fi
+packnet="--algo-set prune_fraction=${packnet_prune:-} --algo-set post_prune_epochs=$post_prune"
 if [[ $part == five || $part == all ]]; then
   run_all \
     "seql-s0|0,1,2|seql|0|" \
@@ -77,4 +91,7 @@ if [[ $part == five || $part == all ]]; then
 fi
 if [[ $part == seeds || $part == all ]]; then
   run_all "seql-s1|0,1,2|seql|1|" "er-s1|0,1,2|er|1|" "packnet-s1|0,1,2|packnet|1|$packnet"
+fi
+if [[ $part == five || $part == seeds || $part == all ]]; then
+  .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --out "$results"
 fi

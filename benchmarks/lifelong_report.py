@@ -243,6 +243,58 @@ def findings_markdown(entries: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+#: The setting each sweep varies (``benchmarks/lifelong.sh sweep``: runs named ``sweep-<algo>-<value>``).
+SWEPT = {"ewc": "penalty_weight", "packnet": "prune_fraction"}
+
+
+def sweep_rows(runs: Path) -> dict[str, list[dict[str, Any]]]:
+    """Per swept algorithm, each sweep run's setting and its FWT, NBT and AUC from held-out starts
+    (95% bootstrap intervals), in the order of the setting."""
+    from libero_bench.runs.folder import HELDOUT
+    from libero_bench.runs.intervals import metric_summary
+    from libero_bench.runs.summary import load_run
+
+    out: dict[str, list[dict[str, Any]]] = {}
+    for folder in sorted(runs.glob("sweep-*")):
+        if not (folder / "results.json").is_file():
+            continue
+        run = load_run(folder)
+        algo = run.config["algo"]
+        value = run.config["algo_config"][SWEPT[algo]]
+        row = {"run": folder.name, "setting": SWEPT[algo], "value": value, "tasks_done": run.tasks_done}
+        row.update(metric_summary([run.draws(HELDOUT)]))
+        out.setdefault(algo, []).append(row)
+    for rows in out.values():
+        rows.sort(key=lambda r: r["value"])
+    return out
+
+
+def pick(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The setting kept: the highest AUC from held-out starts (learning and keeping in one number),
+    then the lowest NBT; among runs that finished both tasks."""
+    done = [r for r in rows if r["tasks_done"] == max(x["tasks_done"] for x in rows)]
+    return max(done, key=lambda r: (r["auc"]["mean"] or -1.0, -(r["nbt"]["mean"] or 0.0)))
+
+
+def sweep_markdown(sweeps: dict[str, list[dict[str, Any]]]) -> str:
+    lines = [
+        "| algorithm | setting | value | FWT (↑) | NBT (↓) | AUC (↑) | kept |",
+        "|---|---|---:|---:|---:|---:|---|",
+    ]
+    for algo, rows in sweeps.items():
+        kept = pick(rows)["run"]
+        for r in rows:
+            lines.append(
+                f"| {NAMES[algo]} | {r['setting']} | {r['value']:g} | {_stat(r['fwt'])} | {_stat(r['nbt'])} | "
+                f"{_stat(r['auc'])} | {'kept' if r['run'] == kept else ''} |"
+            )
+    return (
+        "\n".join(lines)
+        + "\n\nTasks 0 and 1, held-out starts, 95% bootstrap intervals over rollouts. Kept: the highest AUC, "
+        "then the lowest NBT.\n"
+    )
+
+
 def main() -> None:
     from libero_bench.analysis.compare import comparison_markdown
     from libero_bench.analysis.report import write_report
@@ -251,7 +303,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=Path, default=RESULTS / "runs", help="folder of the run folders")
     parser.add_argument("--out", type=Path, default=RESULTS, help="where report/ and findings.* go")
+    parser.add_argument("--sweep", action="store_true", help="only the sweep's table (sweep.md, sweep.json)")
+    parser.add_argument(
+        "--pick", choices=sorted(SWEPT), help="print the swept setting kept for this algorithm"
+    )
     args = parser.parse_args()
+    if args.pick or args.sweep:
+        sweeps = sweep_rows(args.runs)
+        if args.pick:
+            if args.pick not in sweeps:
+                raise SystemExit(
+                    f"{args.runs} holds no sweep run of {args.pick} (benchmarks/lifelong.sh sweep)"
+                )
+            print(pick(sweeps[args.pick])["value"])
+            return
+        write_json(args.out / "sweep.json", sweeps)
+        write_text(args.out / "sweep.md", sweep_markdown(sweeps))
+        print(sweep_markdown(sweeps))
+        return
     main_runs = seed0_runs(args.runs)
     others = sorted(
         p for p in args.runs.iterdir() if p.name.endswith("-s1") and (p / "results.json").is_file()

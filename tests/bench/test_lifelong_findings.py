@@ -71,3 +71,22 @@ def test_a_significant_difference_the_other_way_contradicts() -> None:
     assert verdicts["seql_best_fwt"] == "contradicted"
     assert verdicts["ewc_worse_than_seql"] == "contradicted"
     assert verdicts["packnet_forgets_least"] == "reproduced"
+
+
+def test_the_sweep_keeps_the_highest_auc_then_the_least_forgetting() -> None:
+    from benchmarks.lifelong_report import pick
+
+    def row(value: float, auc: float, nbt: float, done: int = 2) -> dict[str, Any]:
+        return {
+            "run": f"r{value}",
+            "value": value,
+            "tasks_done": done,
+            "auc": {"mean": auc},
+            "nbt": {"mean": nbt},
+        }
+
+    assert pick([row(500, 0.4, 0.3), row(5000, 0.6, 0.5), row(50000, 0.5, 0.1)])["value"] == 5000
+    assert pick([row(500, 0.6, 0.3), row(5000, 0.6, 0.1)])["value"] == 5000  # a tie goes to less forgetting
+    assert (
+        pick([row(500, 0.4, 0.3), row(5000, 0.9, 0.1, done=1)])["value"] == 500
+    )  # an unfinished run is not kept
