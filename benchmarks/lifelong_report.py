@@ -243,6 +243,21 @@ def findings_markdown(entries: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def second_seeds(runs: Path) -> list[Path]:
+    """The runs of another seed (``<algo>-s1``), reported with the seed-0 runs of their algorithm."""
+    return sorted(p for p in runs.iterdir() if p.name.endswith("-s1") and (p / "results.json").is_file())
+
+
+def findings_record(runs: Path, out: Path) -> dict[str, Any]:
+    """What ``findings.json`` holds: the paper's row, each finding tested, and the comparisons
+    behind them (runs named relative to ``out``)."""
+    compared = comparisons(seed0_runs(runs))
+    for result in compared.values():
+        for side in ("a", "b"):
+            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), out.resolve())
+    return {"alpha": ALPHA, "paper": PAPER, "findings": findings(compared), "comparisons": compared}
+
+
 #: The setting each sweep varies (``benchmarks/lifelong.sh sweep``: runs named ``sweep-<algo>-<value>``).
 SWEPT = {"ewc": "penalty_weight", "packnet": "prune_fraction"}
 
@@ -322,20 +337,12 @@ def main() -> None:
         print(sweep_markdown(sweeps))
         return
     main_runs = seed0_runs(args.runs)
-    others = sorted(
-        p for p in args.runs.iterdir() if p.name.endswith("-s1") and (p / "results.json").is_file()
-    )
-    report = write_report([*main_runs.values(), *others], args.out / "report")
-    compared = comparisons(main_runs)
-    for name, result in compared.items():
-        for side in ("a", "b"):  # named from the comparison's folder
-            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), args.out.resolve())
+    report = write_report([*main_runs.values(), *second_seeds(args.runs)], args.out / "report")
+    record = findings_record(args.runs, args.out)
+    for name, result in record["comparisons"].items():
         write_text(args.out / "compare" / f"{name}.md", comparison_markdown(result))
-    entries = findings(compared)
-    write_json(
-        args.out / "findings.json",
-        {"alpha": ALPHA, "paper": PAPER, "findings": entries, "comparisons": compared},
-    )
+    write_json(args.out / "findings.json", record)
+    entries = record["findings"]
     text = (
         "# The five lifelong algorithms on libero_object 0, 1, 2 (quick preset)\n\n"
         + table_markdown(report)
