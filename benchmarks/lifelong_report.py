@@ -26,6 +26,7 @@ verdict; the held-out one is the headline (those starts chose no checkpoint).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 from dataclasses import dataclass
@@ -258,6 +259,40 @@ def findings_record(runs: Path, out: Path) -> dict[str, Any]:
     return {"alpha": ALPHA, "paper": PAPER, "findings": findings(compared), "comparisons": compared}
 
 
+def cost_rows(runs: Path) -> list[dict[str, Any]]:
+    """What each run cost, from its ``timings.jsonl``: epochs trained, seconds per epoch (mean),
+    hours of training and of evaluation rollouts (two runs shared the two cores, one torch thread
+    each)."""
+    rows = []
+    for folder in sorted(p for p in runs.iterdir() if (p / "timings.jsonl").is_file()):
+        lines = [json.loads(x) for x in (folder / "timings.jsonl").read_text().splitlines() if x.strip()]
+        epochs = [x["seconds"] for x in lines if x.get("what") == "epoch"]
+        evaluate = sum(x["seconds"] for x in lines if x.get("what") == "evaluate")
+        rows.append(
+            {
+                "run": folder.name,
+                "epochs": len(epochs),
+                "seconds_per_epoch": sum(epochs) / len(epochs) if epochs else None,
+                "training_hours": sum(epochs) / 3600,
+                "evaluation_hours": evaluate / 3600,
+            }
+        )
+    return rows
+
+
+def cost_markdown(rows: list[dict[str, Any]]) -> str:
+    lines = [
+        "| run | epochs | s per epoch | training h | evaluation h |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        per = "–" if r["seconds_per_epoch"] is None else f"{r['seconds_per_epoch']:.0f}"
+        lines.append(
+            f"| {r['run']} | {r['epochs']} | {per} | {r['training_hours']:.2f} | {r['evaluation_hours']:.2f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 #: The setting each sweep varies (``benchmarks/lifelong.sh sweep``: runs named ``sweep-<algo>-<value>``).
 SWEPT = {"ewc": "penalty_weight", "packnet": "prune_fraction"}
 
@@ -349,6 +384,8 @@ def main() -> None:
         + "\nIntervals: 95% bootstrap over rollouts (and over seeds where there are two). Paper: LIBERO, Table VI, "
         "ResNet-T, LIBERO-Object, three seeds (its MTL row is a success rate).\n\n## The paper's findings\n"
         + findings_markdown(entries)
+        + "\n## What the runs cost\n\nTwo runs at a time on two cores, one torch thread each (`timings.jsonl` of each run).\n\n"
+        + cost_markdown(cost_rows(args.runs))
     )
     write_text(args.out / "findings.md", text)
     print(text)
