@@ -19,7 +19,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from libero_bench.analysis.compare import Paired
+from benchmarks.libero_pro_report import paired_outcomes
 from libero_bench.runs.intervals import Rate
 from libero_data.tasks.plus import CATEGORIES, TITLES
 
@@ -45,19 +45,6 @@ def _outcomes(root: Path, policy: str) -> dict[str, dict[str, bool]]:
     return out
 
 
-def _paired(a: dict[str, bool], b: dict[str, bool]) -> dict[str, Any]:
-    keys = sorted(set(a) & set(b))
-    if not keys:
-        return {"n": 0}
-    return Paired(
-        a=sum(a[k] for k in keys),
-        b=sum(b[k] for k in keys),
-        only_a=sum(a[k] and not b[k] for k in keys),
-        only_b=sum(b[k] and not a[k] for k in keys),
-        n=len(keys),
-    ).to_dict()
-
-
 def summary(root: Path) -> dict[str, Any]:
     """The report's content from the committed folders under ``root``."""
     out: dict[str, Any] = {"categories": list(CATEGORIES), "tasks": {}}
@@ -81,8 +68,8 @@ def summary(root: Path) -> dict[str, Any]:
                     {
                         "first": first,
                         "second": second,
-                        "cells": {c: _paired(a[c], b[c]) for c in CATEGORIES},
-                        "total": _paired(
+                        "cells": {c: paired_outcomes(a[c], b[c]) for c in CATEGORIES},
+                        "total": paired_outcomes(
                             {f"{c}/{k}": v for c in CATEGORIES for k, v in a[c].items()},
                             {f"{c}/{k}": v for c in CATEGORIES for k, v in b[c].items()},
                         ),
@@ -108,13 +95,13 @@ def _pooled(root: Path, shorts: list[str]) -> list[dict[str, Any]]:
         a = {s: _outcomes(root, f"{first}-{s}") for s in both}
         b = {s: _outcomes(root, f"{second}-{s}") for s in both}
         cells = {
-            c: _paired(
+            c: paired_outcomes(
                 {f"{s}/{k}": v for s in both for k, v in a[s][c].items()},
                 {f"{s}/{k}": v for s in both for k, v in b[s][c].items()},
             )
             for c in CATEGORIES
         }
-        total = _paired(
+        total = paired_outcomes(
             {f"{s}/{c}/{k}": v for s in both for c in CATEGORIES for k, v in a[s][c].items()},
             {f"{s}/{c}/{k}": v for s in both for c in CATEGORIES for k, v in b[s][c].items()},
         )
@@ -187,6 +174,8 @@ def name_policies(root: Path) -> None:
 
 
 def main() -> None:
+    from benchmarks.libero_pro_report import write_summary
+
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -194,9 +183,7 @@ def main() -> None:
     args = parser.parse_args()
     name_policies(args.results)
     report = summary(args.results)
-    (args.results / "summary.json").write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
-    (args.results / "summary.md").write_text(markdown(report))
-    print(markdown(report))
+    write_summary(args.results, report, markdown(report))
 
 
 if __name__ == "__main__":

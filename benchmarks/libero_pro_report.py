@@ -50,9 +50,12 @@ def _outcomes(folder: Path) -> dict[int, bool]:
     return {int(r["init_index"]): bool(r["success"]) for r in records}
 
 
-def _paired(a: dict[Any, bool], b: dict[Any, bool]) -> dict[str, Any]:
-    """``a`` and ``b`` on the starts both ran (Paired: ``a`` is the first's successes)."""
+def paired_outcomes(a: dict[Any, bool], b: dict[Any, bool]) -> dict[str, Any]:
+    """``a`` and ``b`` on the keys both ran (Paired: ``a`` is the first's successes); ``{"n": 0}``
+    where they share none."""
     keys = sorted(set(a) & set(b))
+    if not keys:
+        return {"n": 0}
     return Paired(
         a=sum(a[k] for k in keys),
         b=sum(b[k] for k in keys),
@@ -77,16 +80,16 @@ def summary(root: Path) -> dict[str, Any]:
             "columns": {c: row["columns"][c] for c in COLUMNS},
             "perturbed": row["perturbed"],
             "default_protocol": Rate(sum(default.values()), len(default)).to_dict(),
-            "standard_against_default": _paired(standard, default),
+            "standard_against_default": paired_outcomes(standard, default),
         }
     for first, second in PAIRS:
 
         def outcomes(policy: str, column: str) -> dict[Any, bool]:
             return _outcomes(root / policy / suites[policy][column])
 
-        per_column = {c: _paired(outcomes(first, c), outcomes(second, c)) for c in COLUMNS}
+        per_column = {c: paired_outcomes(outcomes(first, c), outcomes(second, c)) for c in COLUMNS}
         perturbed = [c for c in COLUMNS if c != "original"]
-        pooled = _paired(
+        pooled = paired_outcomes(
             {(c, k): v for c in perturbed for k, v in outcomes(first, c).items()},
             {(c, k): v for c in perturbed for k, v in outcomes(second, c).items()},
         )
@@ -165,6 +168,13 @@ def rename_reports(
             write_text(report.with_suffix(".md"), render(summary))
 
 
+def write_summary(root: Path, report: dict[str, Any], text: str) -> None:
+    """``summary.json`` and ``summary.md`` of a benchmark's committed folders, and the text shown."""
+    (root / "summary.json").write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
+    (root / "summary.md").write_text(text)
+    print(text)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -173,9 +183,7 @@ def main() -> None:
     args = parser.parse_args()
     name_policies(args.results)
     report = summary(args.results)
-    (args.results / "summary.json").write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
-    (args.results / "summary.md").write_text(markdown(report))
-    print(markdown(report))
+    write_summary(args.results, report, markdown(report))
 
 
 if __name__ == "__main__":
