@@ -119,7 +119,8 @@ def _pair_cell(p: dict[str, Any]) -> str:
     if not p["n"]:
         return "–"
     diff = (p["a"]["successes"] - p["b"]["successes"]) / p["n"]
-    return f"{diff:+.0%} ({p['only_a']}:{p['only_b']}, p {p['p_value']:.3f})"
+    shown = "p < 0.001" if p["p_value"] < 0.001 else f"p {p['p_value']:.3f}"
+    return f"{diff:+.0%} ({p['only_a']}:{p['only_b']}, {shown})"
 
 
 def markdown(report: dict[str, Any]) -> str:
