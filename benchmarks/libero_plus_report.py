@@ -55,12 +55,7 @@ def summary(root: Path) -> dict[str, Any]:
         outcomes = {k: _outcomes(root, f"{k}-{short}") for k in present}
         entry: dict[str, Any] = {"task": task, "policies": {}, "pairs": []}
         for kind, cats in outcomes.items():
-            every = [v for c in CATEGORIES for v in cats[c].values()]
-            entry["policies"][kind] = {
-                "label": LABELS[kind],
-                "cells": {c: Rate(sum(cats[c].values()), len(cats[c])).to_dict() for c in CATEGORIES},
-                "total": Rate(sum(every), len(every)).to_dict(),
-            }
+            entry["policies"][kind] = _rates(kind, cats)
         for first, second in PAIRS:
             if first in outcomes and second in outcomes:
                 a, b = outcomes[first], outcomes[second]
@@ -76,7 +71,34 @@ def summary(root: Path) -> dict[str, Any]:
                     }
                 )
         out["tasks"][short] = entry
+    out["pooled_policies"] = _pooled_rates(root, list(out["tasks"]))
     out["pooled"] = _pooled(root, list(out["tasks"]))
+    return out
+
+
+def _rates(kind: str, cats: dict[str, dict[str, bool]]) -> dict[str, Any]:
+    """A policy's success per category and in total, from its outcomes by category."""
+    every = [v for c in CATEGORIES for v in cats[c].values()]
+    return {
+        "label": LABELS[kind],
+        "cells": {c: Rate(sum(cats[c].values()), len(cats[c])).to_dict() for c in CATEGORIES},
+        "total": Rate(sum(every), len(every)).to_dict(),
+    }
+
+
+def _pooled_rates(root: Path, shorts: list[str]) -> dict[str, Any]:
+    """Each kind of policy over the tasks where all three kinds ran, per category and in total."""
+    both = [s for s in shorts if all((root / f"{k}-{s}" / "libero_plus.json").is_file() for k in KINDS)]
+    if not both:
+        return {}
+    out = {}
+    for kind in KINDS:
+        per_task = [_outcomes(root, f"{kind}-{s}") for s in both]
+        cats = {
+            c: {f"{s}/{k}": v for s, t in zip(both, per_task, strict=True) for k, v in t[c].items()}
+            for c in CATEGORIES
+        }
+        out[kind] = _rates(kind, cats)
     return out
 
 
@@ -150,13 +172,17 @@ def markdown(report: dict[str, Any]) -> str:
             cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
             lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
     if report.get("pooled"):
-        lines += [
-            "",
-            "## Both tasks pooled",
-            "",
-            "| pair | " + " | ".join(titles) + " | Total |",
-            "|---|" + "---:|" * (len(titles) + 1),
-        ]
+        lines += ["", "## Both tasks pooled"]
+        if report.get("pooled_policies"):
+            lines += [
+                "",
+                "| policy | " + " | ".join(titles) + " | Total |",
+                "|---|" + "---:|" * (len(titles) + 1),
+            ]
+            for row in report["pooled_policies"].values():
+                cells = " | ".join(_cell(row["cells"][c]) for c in CATEGORIES)
+                lines.append(f"| {row['label']} | {cells} | {_cell(row['total'])} |")
+        lines += ["", "| pair | " + " | ".join(titles) + " | Total |", "|---|" + "---:|" * (len(titles) + 1)]
         for pair in report["pooled"]:
             name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
             cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
