@@ -10,6 +10,8 @@ draws of every variant of ours). Policies pair task for task; pairs are tested w
 exact test, per category and pooled.
 
     python -m benchmarks.libero_plus_report [--results benchmarks/results/libero_plus]
+
+Writes ``summary.{json,md}`` and ``summary.png`` (each policy over both tasks, per category).
 """
 
 from __future__ import annotations
@@ -190,6 +192,34 @@ def markdown(report: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def chart(report: dict[str, Any], path: Path) -> None:
+    """Each policy's success over both tasks per category and in total, with Wilson intervals."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from libero_bench.evaluation.eval_report import interval_bars
+
+    rows = report.get("pooled_policies") or {}
+    columns = [c for c in CATEGORIES if any(r["cells"][c]["n"] for r in rows.values())]
+    width = 0.8 / max(len(rows), 1)
+    fig, ax = plt.subplots(figsize=(1.3 * len(columns) + 2.5, 3.4), dpi=120)
+    for k, row in enumerate(rows.values()):
+        x = np.arange(len(columns) + 1) + (k - (len(rows) - 1) / 2) * width
+        interval_bars(ax, x, [*(row["cells"][c] for c in columns), row["total"]], width, row["label"])
+    ax.set_xticks(range(len(columns) + 1), [*(TITLES[c] for c in columns), "Total"], fontsize=8)
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("success (95% Wilson)")
+    tasks = ", ".join(e["task"] for e in report["tasks"].values())
+    ax.set_title(f"LIBERO-Plus tasks made from {tasks}, pooled", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def name_policies(root: Path) -> None:
     """Name each policy in the copied reports from where they are committed (the reports were
     written in a work folder and name the run relative to it)."""
@@ -211,6 +241,7 @@ def main() -> None:
     name_policies(args.results)
     report = summary(args.results)
     write_summary(args.results, report, markdown(report))
+    chart(report, args.results / "summary.png")
 
 
 if __name__ == "__main__":

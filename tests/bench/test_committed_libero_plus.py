@@ -21,6 +21,7 @@ def test_the_summary_is_what_the_report_makes_of_the_committed_folders() -> None
     assert json.loads((RESULTS / "summary.json").read_text()) == json.loads(json.dumps(made))
     assert (RESULTS / "summary.md").read_text() == markdown(made)
     assert set(made["tasks"]) == set(TASKS) and len(made["pooled"]) == 3
+    assert (RESULTS / "summary.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     for kind in KINDS:  # the pooled rates are each task's together
         pooled = made["pooled_policies"][kind]["total"]
         per_task = [made["tasks"][short]["policies"][kind]["total"] for short in TASKS]
