@@ -147,8 +147,28 @@ def _pair_cell(p: dict[str, Any]) -> str:
     return f"{diff:+.0%} ({p['only_a']}:{p['only_b']}, {shown})"
 
 
+def _rate_table(rows: Any) -> list[str]:
+    """A markdown table of policies' rates per category and in total."""
+    lines = ["", "| policy | " + " | ".join(TITLES[c] for c in CATEGORIES) + " | Total |"]
+    lines.append("|---|" + "---:|" * (len(CATEGORIES) + 1))
+    for row in rows:
+        cells = " | ".join(_cell(row["cells"][c]) for c in CATEGORIES)
+        lines.append(f"| {row['label']} | {cells} | {_cell(row['total'])} |")
+    return lines
+
+
+def _pair_table(pairs: Any) -> list[str]:
+    """A markdown table of pairs' paired differences per category and in total."""
+    lines = ["", "| pair | " + " | ".join(TITLES[c] for c in CATEGORIES) + " | Total |"]
+    lines.append("|---|" + "---:|" * (len(CATEGORIES) + 1))
+    for pair in pairs:
+        name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
+        cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
+        lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
+    return lines
+
+
 def markdown(report: dict[str, Any]) -> str:
-    titles = [TITLES[c] for c in CATEGORIES]
     lines = [
         "# Robustness-data policies under LIBERO-Plus",
         "",
@@ -158,37 +178,13 @@ def markdown(report: dict[str, Any]) -> str:
         "second only) and McNemar's exact p.",
     ]
     for entry in report["tasks"].values():
-        lines += [
-            "",
-            f"## {entry['task']}",
-            "",
-            "| policy | " + " | ".join(titles) + " | Total |",
-            "|---|" + "---:|" * (len(titles) + 1),
-        ]
-        for row in entry["policies"].values():
-            cells = " | ".join(_cell(row["cells"][c]) for c in CATEGORIES)
-            lines.append(f"| {row['label']} | {cells} | {_cell(row['total'])} |")
-        lines += ["", "| pair | " + " | ".join(titles) + " | Total |", "|---|" + "---:|" * (len(titles) + 1)]
-        for pair in entry["pairs"]:
-            name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
-            cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
-            lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
+        lines += ["", f"## {entry['task']}"]
+        lines += _rate_table(entry["policies"].values()) + _pair_table(entry["pairs"])
     if report.get("pooled"):
         lines += ["", "## Both tasks pooled"]
         if report.get("pooled_policies"):
-            lines += [
-                "",
-                "| policy | " + " | ".join(titles) + " | Total |",
-                "|---|" + "---:|" * (len(titles) + 1),
-            ]
-            for row in report["pooled_policies"].values():
-                cells = " | ".join(_cell(row["cells"][c]) for c in CATEGORIES)
-                lines.append(f"| {row['label']} | {cells} | {_cell(row['total'])} |")
-        lines += ["", "| pair | " + " | ".join(titles) + " | Total |", "|---|" + "---:|" * (len(titles) + 1)]
-        for pair in report["pooled"]:
-            name = f"{LABELS[pair['first']]} − {LABELS[pair['second']]}"
-            cells = " | ".join(_pair_cell(pair["cells"][c]) for c in CATEGORIES)
-            lines.append(f"| {name} | {cells} | {_pair_cell(pair['total'])} |")
+            lines += _rate_table(report["pooled_policies"].values())
+        lines += _pair_table(report["pooled"])
     return "\n".join(lines) + "\n"
 
 
