@@ -321,7 +321,8 @@ def sweep_rows(runs: Path) -> dict[str, list[dict[str, Any]]]:
 
 def pick(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The setting kept: the highest AUC from held-out starts (learning and keeping in one number),
-    then the lowest NBT; among runs that finished both tasks."""
+    then the lowest NBT, then the smallest setting (rows come sorted by it); among runs that
+    finished both tasks."""
     done = [r for r in rows if r["tasks_done"] == max(x["tasks_done"] for x in rows)]
     return max(done, key=lambda r: (r["auc"]["mean"] or -1.0, -(r["nbt"]["mean"] or 0.0)))
 
@@ -341,7 +342,7 @@ def sweep_markdown(sweeps: dict[str, list[dict[str, Any]]]) -> str:
     return (
         "\n".join(lines)
         + "\n\nTasks 0 and 1, held-out starts, 95% bootstrap intervals over rollouts. Kept: the highest AUC, "
-        "then the lowest NBT.\n"
+        "then the lowest NBT, then the smallest setting.\n"
     )
 
 

@@ -87,6 +87,7 @@ def test_the_sweep_keeps_the_highest_auc_then_the_least_forgetting() -> None:
 
     assert pick([row(500, 0.4, 0.3), row(5000, 0.6, 0.5), row(50000, 0.5, 0.1)])["value"] == 5000
     assert pick([row(500, 0.6, 0.3), row(5000, 0.6, 0.1)])["value"] == 5000  # a tie goes to less forgetting
+    assert pick([row(500, 0.6, 0.3), row(5000, 0.6, 0.3)])["value"] == 500  # then to the smaller setting
     assert (
         pick([row(500, 0.4, 0.3), row(5000, 0.9, 0.1, done=1)])["value"] == 500
     )  # an unfinished run is not kept
