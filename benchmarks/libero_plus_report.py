@@ -33,13 +33,16 @@ LABELS = {"single": "A", "single-aug": "A with augmentation", "mixed-more": "B (
 PAIRS = (("mixed-more", "single"), ("single-aug", "single"), ("mixed-more", "single-aug"))
 
 
-def _outcomes(root: Path, policy: str) -> dict[str, dict[str, bool]]:
+Outcomes = dict[str, dict[str, bool]]  # category -> task name -> success
+
+
+def _outcomes(root: Path, policy: str) -> Outcomes:
     """Category -> task name -> success, from a policy's table and its suites' rollouts (a task's
     name says its category: libero_data.tasks.plus.parse_name)."""
     from libero_data.tasks.plus import parse_name
 
     table = json.loads((root / policy / "libero_plus.json").read_text())
-    out: dict[str, dict[str, bool]] = {c: {} for c in CATEGORIES}
+    out: Outcomes = {c: {} for c in CATEGORIES}
     for row in table["rows"]:
         records = json.loads((root / policy / row["folder"] / "results.json").read_text())["rollouts"]
         for r in records:
@@ -48,37 +51,55 @@ def _outcomes(root: Path, policy: str) -> dict[str, dict[str, bool]]:
 
 
 def summary(root: Path) -> dict[str, Any]:
-    """The report's content from the committed folders under ``root``."""
-    out: dict[str, Any] = {"categories": list(CATEGORIES), "tasks": {}}
-    for short, task in TASKS.items():
+    """The report's content from the committed folders under ``root`` (each policy read once)."""
+    read: dict[str, dict[str, Outcomes]] = {}  # task short name -> kind -> outcomes
+    for short in TASKS:
         present = [k for k in KINDS if (root / f"{k}-{short}" / "libero_plus.json").is_file()]
-        if not present:
-            continue
-        outcomes = {k: _outcomes(root, f"{k}-{short}") for k in present}
-        entry: dict[str, Any] = {"task": task, "policies": {}, "pairs": []}
-        for kind, cats in outcomes.items():
-            entry["policies"][kind] = _rates(kind, cats)
-        for first, second in PAIRS:
-            if first in outcomes and second in outcomes:
-                a, b = outcomes[first], outcomes[second]
-                entry["pairs"].append(
-                    {
-                        "first": first,
-                        "second": second,
-                        "cells": {c: paired_outcomes(a[c], b[c]) for c in CATEGORIES},
-                        "total": paired_outcomes(
-                            {f"{c}/{k}": v for c in CATEGORIES for k, v in a[c].items()},
-                            {f"{c}/{k}": v for c in CATEGORIES for k, v in b[c].items()},
-                        ),
-                    }
-                )
-        out["tasks"][short] = entry
-    out["pooled_policies"] = _pooled_rates(root, list(out["tasks"]))
-    out["pooled"] = _pooled(root, list(out["tasks"]))
+        if present:
+            read[short] = {k: _outcomes(root, f"{k}-{short}") for k in present}
+    out: dict[str, Any] = {"categories": list(CATEGORIES), "tasks": {}}
+    for short, outcomes in read.items():
+        out["tasks"][short] = {
+            "task": TASKS[short],
+            "policies": {kind: _rates(kind, cats) for kind, cats in outcomes.items()},
+            "pairs": [
+                _pair(first, second, outcomes) for first, second in PAIRS if {first, second} <= set(outcomes)
+            ],
+        }
+    every = [s for s in read if set(KINDS) <= set(read[s])]
+    out["pooled_policies"] = {k: _rates(k, _merge(read, every, k)) for k in KINDS} if every else {}
+    # Each pair over both tasks' LIBERO-Plus tasks together (the tasks are distinct, so their paired
+    # outcomes pool into one McNemar test).
+    out["pooled"] = []
+    for first, second in PAIRS:
+        both = [s for s in read if {first, second} <= set(read[s])]
+        if both:
+            merged = {k: _merge(read, both, k) for k in (first, second)}
+            out["pooled"].append({**_pair(first, second, merged), "tasks": both})
     return out
 
 
-def _rates(kind: str, cats: dict[str, dict[str, bool]]) -> dict[str, Any]:
+def _merge(read: dict[str, dict[str, Outcomes]], shorts: list[str], kind: str) -> Outcomes:
+    """A kind of policy's outcomes over several tasks, each task name prefixed by its task."""
+    return {c: {f"{s}/{k}": v for s in shorts for k, v in read[s][kind][c].items()} for c in CATEGORIES}
+
+
+def _pair(first: str, second: str, outcomes: dict[str, Outcomes]) -> dict[str, Any]:
+    """Two kinds task for task, per category and over all categories."""
+    a, b = outcomes[first], outcomes[second]
+
+    def every(cats: Outcomes) -> dict[str, bool]:
+        return {f"{c}/{k}": v for c in CATEGORIES for k, v in cats[c].items()}
+
+    return {
+        "first": first,
+        "second": second,
+        "cells": {c: paired_outcomes(a[c], b[c]) for c in CATEGORIES},
+        "total": paired_outcomes(every(a), every(b)),
+    }
+
+
+def _rates(kind: str, cats: Outcomes) -> dict[str, Any]:
     """A policy's success per category and in total, from its outcomes by category."""
     every = [v for c in CATEGORIES for v in cats[c].values()]
     return {
@@ -86,51 +107,6 @@ def _rates(kind: str, cats: dict[str, dict[str, bool]]) -> dict[str, Any]:
         "cells": {c: Rate(sum(cats[c].values()), len(cats[c])).to_dict() for c in CATEGORIES},
         "total": Rate(sum(every), len(every)).to_dict(),
     }
-
-
-def _pooled_rates(root: Path, shorts: list[str]) -> dict[str, Any]:
-    """Each kind of policy over the tasks where all three kinds ran, per category and in total."""
-    both = [s for s in shorts if all((root / f"{k}-{s}" / "libero_plus.json").is_file() for k in KINDS)]
-    if not both:
-        return {}
-    out = {}
-    for kind in KINDS:
-        per_task = [_outcomes(root, f"{kind}-{s}") for s in both]
-        cats = {
-            c: {f"{s}/{k}": v for s, t in zip(both, per_task, strict=True) for k, v in t[c].items()}
-            for c in CATEGORIES
-        }
-        out[kind] = _rates(kind, cats)
-    return out
-
-
-def _pooled(root: Path, shorts: list[str]) -> list[dict[str, Any]]:
-    """Each pair over both tasks' LIBERO-Plus tasks together, per category and in total (the
-    tasks are distinct, so their paired outcomes pool into one McNemar test)."""
-    pooled = []
-    for first, second in PAIRS:
-        both = [
-            s
-            for s in shorts
-            if all((root / f"{k}-{s}" / "libero_plus.json").is_file() for k in (first, second))
-        ]
-        if not both:
-            continue
-        a = {s: _outcomes(root, f"{first}-{s}") for s in both}
-        b = {s: _outcomes(root, f"{second}-{s}") for s in both}
-        cells = {
-            c: paired_outcomes(
-                {f"{s}/{k}": v for s in both for k, v in a[s][c].items()},
-                {f"{s}/{k}": v for s in both for k, v in b[s][c].items()},
-            )
-            for c in CATEGORIES
-        }
-        total = paired_outcomes(
-            {f"{s}/{c}/{k}": v for s in both for c in CATEGORIES for k, v in a[s][c].items()},
-            {f"{s}/{c}/{k}": v for s in both for c in CATEGORIES for k, v in b[s][c].items()},
-        )
-        pooled.append({"first": first, "second": second, "tasks": both, "cells": cells, "total": total})
-    return pooled
 
 
 def _cell(rate: dict[str, Any]) -> str:
