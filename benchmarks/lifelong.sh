@@ -9,10 +9,11 @@
 #          images, LIBERO's sampler starts with the stored states' arm noise), as benchmarks/quick.sh
 #   sweep  the settings the quick preset leaves open, on tasks 0 and 1: EWC's penalty weight
 #          (5e2, 5e3, 5e4: the paper's 5e4 was set for a 10x larger policy) and PackNet's pruned share
-#          with a post-prune fine-tuning as long as a task's training (prune 0.5 and 0.75, 16 epochs)
-#   five   the five algorithms on tasks 0, 1, 2, seed 0 (EWC and PackNet with the settings the sweep
-#          kept: the highest held-out AUC, benchmarks/lifelong_report.py --pick; EWC_WEIGHT and
-#          PACKNET_PRUNE override)
+#          with a post-prune fine-tuning as long as a task's training (prune 0.5 and 0.75, 16 epochs);
+#          each sweep run is a run on tasks 0, 1, 2 stopped after two tasks (--stop-after 2)
+#   five   the five algorithms on tasks 0, 1, 2, seed 0; EWC and PackNet go on from the sweep run
+#          kept (the highest held-out AUC, benchmarks/lifelong_report.py --pick; EWC_RUN and
+#          PACKNET_RUN name another sweep run), copied, instead of learning tasks 0 and 1 again
 #   seeds  SeqL, ER and PackNet again with seed 1
 #   all    every part in turn
 #
@@ -62,35 +63,46 @@ run_all() {  # entries "name|tasks|algo|seed|options", two at a time
 
 post_prune=16
 [[ $preset == smoke ]] && post_prune=1
+setting() {  # a sweep run's name -> its algorithm settings
+  case $1 in
+    sweep-ewc-*) echo "--algo-set penalty_weight=${1#sweep-ewc-}" ;;
+    sweep-packnet-*) echo "--algo-set prune_fraction=0.${1#sweep-packnet-0} --algo-set post_prune_epochs=$post_prune" ;;
+    *) echo "lifelong.sh: $1 is not a sweep run" >&2; exit 2 ;;
+  esac
+}
+continue_from() {  # sweep-run run: the kept sweep run's folder becomes the run's, which goes on from it
+  [[ -e $work/runs/$2 ]] || cp -a "$work/runs/$1" "$work/runs/$2"
+}
 if [[ $part == data || $part == all ]]; then
   $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task "$episodes" --image-size 64 \
     --render-quality fast --workers 2 --seed 0 --out "$work/object-64"
 fi
 if [[ $part == sweep || $part == all ]]; then
   run_all \
-    "sweep-ewc-500|0,1|ewc|0|--algo-set penalty_weight=500" \
-    "sweep-ewc-5000|0,1|ewc|0|--algo-set penalty_weight=5000" \
-    "sweep-ewc-50000|0,1|ewc|0|--algo-set penalty_weight=50000" \
-    "sweep-packnet-050|0,1|packnet|0|--algo-set prune_fraction=0.5 --algo-set post_prune_epochs=$post_prune" \
-    "sweep-packnet-075|0,1|packnet|0|--algo-set prune_fraction=0.75 --algo-set post_prune_epochs=$post_prune"
+    "sweep-ewc-500|0,1,2|ewc|0|$(setting sweep-ewc-500) --stop-after 2" \
+    "sweep-ewc-5000|0,1,2|ewc|0|$(setting sweep-ewc-5000) --stop-after 2" \
+    "sweep-ewc-50000|0,1,2|ewc|0|$(setting sweep-ewc-50000) --stop-after 2" \
+    "sweep-packnet-050|0,1,2|packnet|0|$(setting sweep-packnet-050) --stop-after 2" \
+    "sweep-packnet-075|0,1,2|packnet|0|$(setting sweep-packnet-075) --stop-after 2"
   .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --sweep --out "$results"
 fi
 if [[ $part == five || $part == seeds || $part == all ]]; then
-  ewc_weight=${EWC_WEIGHT:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick ewc)}
-  packnet_prune=${PACKNET_PRUNE:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick packnet)}
-  echo "EWC penalty weight $ewc_weight, PackNet prune fraction $packnet_prune"
+  ewc_run=${EWC_RUN:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick ewc)}
+  packnet_run=${PACKNET_RUN:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick packnet)}
+  echo "kept: $ewc_run ($(setting "$ewc_run")), $packnet_run ($(setting "$packnet_run"))"
 fi
-packnet="--algo-set prune_fraction=${packnet_prune:-} --algo-set post_prune_epochs=$post_prune"
 if [[ $part == five || $part == all ]]; then
+  continue_from "$ewc_run" ewc-s0
+  continue_from "$packnet_run" packnet-s0
   run_all \
     "seql-s0|0,1,2|seql|0|" \
     "er-s0|0,1,2|er|0|" \
-    "ewc-s0|0,1,2|ewc|0|--algo-set penalty_weight=$ewc_weight" \
-    "packnet-s0|0,1,2|packnet|0|$packnet" \
+    "ewc-s0|0,1,2|ewc|0|$(setting "$ewc_run")" \
+    "packnet-s0|0,1,2|packnet|0|$(setting "$packnet_run")" \
     "mtl-s0|0,1,2|mtl|0|"
 fi
 if [[ $part == seeds || $part == all ]]; then
-  run_all "seql-s1|0,1,2|seql|1|" "er-s1|0,1,2|er|1|" "packnet-s1|0,1,2|packnet|1|$packnet"
+  run_all "seql-s1|0,1,2|seql|1|" "er-s1|0,1,2|er|1|" "packnet-s1|0,1,2|packnet|1|$(setting "$packnet_run")"
 fi
 if [[ $part == five || $part == seeds || $part == all ]]; then
   .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --out "$results"

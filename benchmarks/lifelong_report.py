@@ -342,7 +342,9 @@ def sweep_markdown(sweeps: dict[str, list[dict[str, Any]]]) -> str:
     return (
         "\n".join(lines)
         + "\n\nTasks 0 and 1, held-out starts, 95% bootstrap intervals over rollouts. Kept: the highest AUC, "
-        "then the lowest NBT, then the smallest setting.\n"
+        "then the lowest NBT, then the smallest setting. Each sweep run is the start of a run on tasks 0, 1, 2 "
+        "stopped after two tasks (`libero-bench run --stop-after 2`); the kept one goes on to task 2 as the "
+        "algorithm's run in the table of the five.\n"
     )
 
 
@@ -356,7 +358,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS, help="where report/ and findings.* go")
     parser.add_argument("--sweep", action="store_true", help="only the sweep's table (sweep.md, sweep.json)")
     parser.add_argument(
-        "--pick", choices=sorted(SWEPT), help="print the swept setting kept for this algorithm"
+        "--pick", choices=sorted(SWEPT), help="print the sweep run kept for this algorithm (its folder name)"
     )
     args = parser.parse_args()
     if args.pick or args.sweep:
@@ -366,7 +368,7 @@ def main() -> None:
                 raise SystemExit(
                     f"{args.runs} holds no sweep run of {args.pick} (benchmarks/lifelong.sh sweep)"
                 )
-            print(pick(sweeps[args.pick])["value"])
+            print(pick(sweeps[args.pick])["run"])
             return
         write_json(args.out / "sweep.json", sweeps)
         write_text(args.out / "sweep.md", sweep_markdown(sweeps))
@@ -387,6 +389,8 @@ def main() -> None:
         + findings_markdown(entries)
         + "\n## What the runs cost\n\nTwo runs at a time on two cores, one torch thread each (`timings.jsonl` of each run).\n\n"
         + cost_markdown(cost_rows(args.runs))
+        + "\nThe EWC and PackNet runs of the table went on from the sweep run kept: their rows count tasks 0 "
+        "and 1 once more (spent once, in that sweep run).\n"
     )
     write_text(args.out / "findings.md", text)
     print(text)

@@ -113,6 +113,16 @@ def run_cmd(
     render_quality: EvalRenderQuality = None,
     mix: Mix = None,
     mix_weight: MixWeight = 0.5,
+    stop_after: Annotated[
+        int | None,
+        typer.Option(
+            "--stop-after",
+            help="Stop once the first N tasks are learned and the earlier ones evaluated again, e.g. to sweep "
+            "a setting on a sequence's first tasks; the same command without it continues the run from there "
+            "with the numbers it would have had (not for mtl, which learns every task at once).",
+            min=1,
+        ),
+    ] = None,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
     quiet_environment(threads)
@@ -146,7 +156,9 @@ def run_cmd(
     )
     with console().status("reading the dataset and embedding the tasks"):
         plan = plan_run(request)
-    options = RunOptions(device=device, executor=runner, loader_workers=loader_workers, threads=threads)
+    options = RunOptions(
+        device=device, executor=runner, loader_workers=loader_workers, threads=threads, stop_after=stop_after
+    )
     trainer = Trainer(plan, out, options)
     started = time.perf_counter()
     trainer.prepare()
@@ -154,7 +166,14 @@ def run_cmd(
         trainer.observer = observer
         done = trainer.run()
     minutes = (time.perf_counter() - started) / 60
-    say(f"done: {len(plan.tasks)} tasks, {len(done.rollouts)} rollouts in {out} ({minutes:.1f} min)")
+    if done.finished_tasks < len(plan.tasks):
+        say(
+            f"stopped after {done.finished_tasks} of {len(plan.tasks)} tasks (--stop-after), "
+            f"{len(done.rollouts)} rollouts in {out} ({minutes:.1f} min); the same command without "
+            "--stop-after continues it"
+        )
+    else:
+        say(f"done: {len(plan.tasks)} tasks, {len(done.rollouts)} rollouts in {out} ({minutes:.1f} min)")
     from libero_bench.analysis.report import summarize, table_rows
     from libero_bench.cli.results import print_table
     from libero_bench.runs.summary import load_run

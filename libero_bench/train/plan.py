@@ -59,6 +59,9 @@ class RunOptions(Config):
     )  # where the evaluation rollouts step (libero_data.runtime.jobs)
     loader_workers: int = 0  # DataLoader worker processes (PyTorch's meaning: 0 is this process)
     threads: int = 1  # torch threads of the training process (last-bit differences follow it)
+    # stop once this many tasks are learned and the earlier ones evaluated again (a sweep on a
+    # sequence's first tasks); the same run without it goes on from there with the same numbers
+    stop_after: int | None = None
 
 
 def select_tasks(source: DemoDataset, tasks: Sequence[str] | None, order: int | None) -> list[DemoTask]:

@@ -25,6 +25,8 @@ torch from the run seed and the task's position, :func:`libero_data.seeding.run_
 loaders shuffle from the same seeds). Within a task, the state after each finished epoch
 (weights, optimiser, schedule, best weights so far, results, random streams) is saved too, so
 an interrupted task goes on after its last finished epoch, again with the same numbers.
+``RunOptions.stop_after`` ends an invocation after the first tasks on purpose (a settings sweep
+on a sequence's first tasks): the setting kept then goes on in the same folder.
 """
 
 from __future__ import annotations
@@ -63,7 +65,7 @@ from libero_bench.train.plan import (
 )
 from libero_bench.train.presets import TrainPreset
 from libero_bench.train.rounds import EvaluationRounds
-from libero_data.errors import SettingsChanged
+from libero_data.errors import InputError, SettingsChanged
 from libero_data.runtime.files import write_json
 from libero_data.runtime.folder import changed_keys
 from libero_data.seeding import END_TASK_LOADER, LOADER, TASK_START, WEIGHTS, run_seed
@@ -95,6 +97,17 @@ class Trainer:
         self.rounds = EvaluationRounds(plan, self.folder, observer or RunObserver())
         self.device = check_device(self.options.device)
         self.K = len(plan.tasks)
+        stop = self.options.stop_after
+        if stop is not None and plan.needs_all_tasks:
+            raise InputError(
+                f"--stop-after applies to algorithms that learn task by task; {plan.request.algo} learns "
+                "every task at once",
+                field="stop_after",
+            )
+        if stop is not None and stop < 1:
+            raise InputError(f"--stop-after must be at least 1, got {stop}", field="stop_after")
+        #: tasks this invocation learns before it returns (all of them unless ``stop_after``)
+        self.until = self.K if stop is None else min(stop, self.K)
         self.eval_epochs = self.preset.eval_epochs()
         self._results: RunResults | None = None
 
@@ -209,6 +222,8 @@ class Trainer:
                     self._run_sequential(results, policy, algo)
             finally:
                 self.rounds.environments = None
+        if results.finished_tasks < self.K:
+            return results  # stopped after the first tasks (``stop_after``): nothing to join yet
         if not results.complete:
             self.collect_rollouts(results)
             results.complete = True
@@ -239,7 +254,7 @@ class Trainer:
 
     def _run_sequential(self, results: RunResults, policy: Policy, algo: Algo) -> None:
         start = self._resume_point(results, policy, algo, self.K)
-        for tau in range(start, self.K):
+        for tau in range(start, self.until):
             task = self.plan.tasks[tau]
             self.observer.phase(f"task {tau + 1}/{self.K}: {task.language}")
             if results.stage[tau] != "trained":

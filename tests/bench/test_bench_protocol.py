@@ -166,3 +166,30 @@ def test_a_run_starts_from_another_runs_weights(tiny_dataset: Path, tmp_path: Pa
     other = RunRequest(data=tiny_dataset, algo="seql", policy="vit_t", preset=PRESET, init_checkpoint=weights)
     with pytest.raises(ValueError, match="does not fit the vit_t policy"):
         Trainer(plan_run(other), tmp_path / "vit", RunOptions()).run()
+
+
+def test_a_run_stopped_after_its_first_tasks_goes_on_in_a_copy_of_its_folder_with_the_same_numbers(
+    tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator]
+) -> None:
+    # benchmarks/lifelong.sh sweeps PackNet and EWC on the first tasks with --stop-after, then continues
+    # the kept setting's folder (copied) instead of learning those tasks again.
+    import shutil
+
+    def trainer(out: Path, stop_after: int | None = None) -> Trainer:
+        plan = plan_run(RunRequest(data=tiny_dataset, algo="packnet", policy="resnet_t", preset=PRESET))
+        return Trainer(plan, out, RunOptions(stop_after=stop_after))
+
+    whole = trainer(tmp_path / "whole").run()
+    stopped = trainer(tmp_path / "sweep", stop_after=1).run()
+    assert stopped.stage[0] == "done" and stopped.stage[1] != "done" and not stopped.complete
+    assert not (tmp_path / "sweep" / "checkpoints" / "task_001.safetensors").exists()
+    shutil.copytree(tmp_path / "sweep", tmp_path / "kept")
+    continued = trainer(tmp_path / "kept").run()
+    assert continued.complete and continued.to_dict() == whole.to_dict()
+    for name in ("task_000", "task_001"):
+        a = read_checkpoint(tmp_path / "whole" / "checkpoints" / f"{name}.safetensors")["policy"]
+        b = read_checkpoint(tmp_path / "kept" / "checkpoints" / f"{name}.safetensors")["policy"]
+        assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    plan = plan_run(RunRequest(data=tiny_dataset, algo="mtl", policy="resnet_t", preset=PRESET))
+    with pytest.raises(ValueError, match="--stop-after applies to algorithms that learn task by task"):
+        Trainer(plan, tmp_path / "mtl", RunOptions(stop_after=1))
