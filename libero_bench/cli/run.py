@@ -70,6 +70,17 @@ MixWeight = Annotated[
     ),
 ]
 
+StopAfter = Annotated[
+    int | None,
+    typer.Option(
+        "--stop-after",
+        help="Stop once the first N tasks are learned and the earlier ones evaluated again, e.g. to sweep "
+        "a setting on a sequence's first tasks; the same command without it continues the run from there "
+        "with the numbers it would have had (not for mtl, which learns every task at once).",
+        min=1,
+    ),
+]
+
 
 @user_errors
 def run_cmd(
@@ -113,16 +124,7 @@ def run_cmd(
     render_quality: EvalRenderQuality = None,
     mix: Mix = None,
     mix_weight: MixWeight = 0.5,
-    stop_after: Annotated[
-        int | None,
-        typer.Option(
-            "--stop-after",
-            help="Stop once the first N tasks are learned and the earlier ones evaluated again, e.g. to sweep "
-            "a setting on a sequence's first tasks; the same command without it continues the run from there "
-            "with the numbers it would have had (not for mtl, which learns every task at once).",
-            min=1,
-        ),
-    ] = None,
+    stop_after: StopAfter = None,
 ) -> None:
     """Train a lifelong learner task by task, evaluate it in simulation and store every rollout."""
     quiet_environment(threads)
@@ -166,14 +168,12 @@ def run_cmd(
         trainer.observer = observer
         done = trainer.run()
     minutes = (time.perf_counter() - started) / 60
-    if done.finished_tasks < len(plan.tasks):
-        say(
-            f"stopped after {done.finished_tasks} of {len(plan.tasks)} tasks (--stop-after), "
-            f"{len(done.rollouts)} rollouts in {out} ({minutes:.1f} min); the same command without "
-            "--stop-after continues it"
-        )
-    else:
-        say(f"done: {len(plan.tasks)} tasks, {len(done.rollouts)} rollouts in {out} ({minutes:.1f} min)")
+    stopped = done.finished_tasks < len(plan.tasks)
+    say(
+        (f"stopped after {done.finished_tasks} of " if stopped else "done: ")
+        + f"{len(plan.tasks)} tasks, {len(done.rollouts)} rollouts in {out} ({minutes:.1f} min)"
+        + ("; the same command without --stop-after continues it" if stopped else "")
+    )
     from libero_bench.analysis.report import summarize, table_rows
     from libero_bench.cli.results import print_table
     from libero_bench.runs.summary import load_run

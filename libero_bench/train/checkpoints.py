@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from libero_bench.runs.folder import RUN_FORMAT
+from libero_bench.runs.folder import RUN_FORMAT, RunResults
 from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE, load_into, read_checkpoint
 from libero_bench.runs.state_files import load_state, load_weights, save_state
 from libero_data.errors import InputError, first_line
@@ -98,3 +98,18 @@ def load_initial_weights(path: Path, policy: Policy, device: torch.device, polic
             field="init_checkpoint",
         ) from None
     logger.info("policy initialised from %s", path)
+
+
+def restore_training(
+    saved: dict[str, Any], results: RunResults, policy: Policy, algo: Algo, optimiser: Any, scheduler: Any
+) -> None:
+    """Weights, algorithm state, optimiser, schedule, results and random streams as they were
+    after the saved epoch, so the task goes on as if it had not been interrupted."""
+    policy.load_state_dict(saved["policy"])
+    algo.load_state_dict(saved["algo"])
+    algo.bind(policy)
+    optimiser.load_state_dict(saved["optimiser"])
+    if scheduler is not None and saved["scheduler"] is not None:
+        scheduler.load_state_dict(saved["scheduler"])
+    vars(results).update(vars(RunResults.from_dict(saved["results"])))
+    restore_rng(saved["rng"])

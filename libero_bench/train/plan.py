@@ -125,6 +125,21 @@ class RunPlan:
             seeds |= self.mix.starts(position)[1]
         return frozenset(seeds)
 
+    def tasks_this_time(self, options: RunOptions) -> int:
+        """How many tasks an invocation learns before it returns: all unless ``options.stop_after``."""
+        stop = options.stop_after
+        if stop is None:
+            return len(self.tasks)
+        if self.needs_all_tasks:
+            raise InputError(
+                f"--stop-after applies to algorithms that learn task by task; {self.request.algo} learns "
+                "every task at once",
+                field="stop_after",
+            )
+        if stop < 1:
+            raise InputError(f"--stop-after must be at least 1, got {stop}", field="stop_after")
+        return min(stop, len(self.tasks))
+
     def rollouts_meta(self, run: str) -> dict[str, Any]:
         """What the run's rollout dataset says of itself (``run``: the run folder's name)."""
         return {

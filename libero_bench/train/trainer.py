@@ -25,8 +25,7 @@ torch from the run seed and the task's position, :func:`libero_data.seeding.run_
 loaders shuffle from the same seeds). Within a task, the state after each finished epoch
 (weights, optimiser, schedule, best weights so far, results, random streams) is saved too, so
 an interrupted task goes on after its last finished epoch, again with the same numbers.
-``RunOptions.stop_after`` ends an invocation after the first tasks on purpose (a settings sweep
-on a sequence's first tasks): the setting kept then goes on in the same folder.
+``RunOptions.stop_after`` ends an invocation after the first tasks on purpose (a sweep).
 """
 
 from __future__ import annotations
@@ -47,7 +46,7 @@ from libero_bench.train.checkpoints import (
     load_checkpoint,
     load_epoch_state,
     load_initial_weights,
-    restore_rng,
+    restore_training,
     save_checkpoint,
     save_epoch_state,
     seed_everything,
@@ -65,7 +64,7 @@ from libero_bench.train.plan import (
 )
 from libero_bench.train.presets import TrainPreset
 from libero_bench.train.rounds import EvaluationRounds
-from libero_data.errors import InputError, SettingsChanged
+from libero_data.errors import SettingsChanged
 from libero_data.runtime.files import write_json
 from libero_data.runtime.folder import changed_keys
 from libero_data.seeding import END_TASK_LOADER, LOADER, TASK_START, WEIGHTS, run_seed
@@ -97,17 +96,7 @@ class Trainer:
         self.rounds = EvaluationRounds(plan, self.folder, observer or RunObserver())
         self.device = check_device(self.options.device)
         self.K = len(plan.tasks)
-        stop = self.options.stop_after
-        if stop is not None and plan.needs_all_tasks:
-            raise InputError(
-                f"--stop-after applies to algorithms that learn task by task; {plan.request.algo} learns "
-                "every task at once",
-                field="stop_after",
-            )
-        if stop is not None and stop < 1:
-            raise InputError(f"--stop-after must be at least 1, got {stop}", field="stop_after")
-        #: tasks this invocation learns before it returns (all of them unless ``stop_after``)
-        self.until = self.K if stop is None else min(stop, self.K)
+        self.until = plan.tasks_this_time(self.options)
         self.eval_epochs = self.preset.eval_epochs()
         self._results: RunResults | None = None
 
@@ -318,7 +307,7 @@ class Trainer:
             best_rate, best_epoch, best_state, losses = (
                 saved[k] for k in ("best_rate", "best_epoch", "best_state", "losses")
             )
-            _restore_training(saved, results, policy, algo, optimiser, scheduler)
+            restore_training(saved, results, policy, algo, optimiser, scheduler)
             logger.info("%s: resuming after epoch %d of %d", name, saved["epoch"], p.epochs)
         for epoch in range(first, p.epochs + 1):
             loader.set_epoch(epoch)
@@ -448,18 +437,3 @@ def run_lifelong(
     """Plan and run (or resume) a lifelong run into ``out``."""
     plan = plan_run(request)
     return Trainer(plan, Path(out), options, observer).run()
-
-
-def _restore_training(
-    saved: dict[str, Any], results: RunResults, policy: Policy, algo: Algo, optimiser: Any, scheduler: Any
-) -> None:
-    """Weights, algorithm state, optimiser, schedule, results and random streams as they were
-    after the saved epoch, so the task goes on as if it had not been interrupted."""
-    policy.load_state_dict(saved["policy"])
-    algo.load_state_dict(saved["algo"])
-    algo.bind(policy)
-    optimiser.load_state_dict(saved["optimiser"])
-    if scheduler is not None and saved["scheduler"] is not None:
-        scheduler.load_state_dict(saved["scheduler"])
-    vars(results).update(vars(RunResults.from_dict(saved["results"])))
-    restore_rng(saved["rng"])
