@@ -89,6 +89,7 @@ fi
 if [[ $part == five || $part == seeds || $part == all ]]; then
   ewc_run=${EWC_RUN:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick ewc)}
   packnet_run=${PACKNET_RUN:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick packnet)}
+  setting "$ewc_run" >/dev/null && setting "$packnet_run" >/dev/null  # a name that is no sweep run stops here
   echo "kept: $ewc_run ($(setting "$ewc_run")), $packnet_run ($(setting "$packnet_run"))"
 fi
 if [[ $part == five || $part == all ]]; then

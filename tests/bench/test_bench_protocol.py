@@ -70,9 +70,9 @@ def scripted(monkeypatch: pytest.MonkeyPatch) -> type[ScriptedEvaluator]:
     return ScriptedEvaluator
 
 
-def _trainer(data: Path, out: Path, algo: str) -> Trainer:
+def _trainer(data: Path, out: Path, algo: str, stop_after: int | None = None) -> Trainer:
     plan = plan_run(RunRequest(data=data, algo=algo, policy="resnet_t", preset=PRESET))
-    return Trainer(plan, out, RunOptions())
+    return Trainer(plan, out, RunOptions(stop_after=stop_after))
 
 
 @pytest.mark.parametrize("algo", algo_names())
@@ -175,21 +175,16 @@ def test_a_run_stopped_after_its_first_tasks_goes_on_in_a_copy_of_its_folder_wit
     # the kept setting's folder (copied) instead of learning those tasks again.
     import shutil
 
-    def trainer(out: Path, stop_after: int | None = None) -> Trainer:
-        plan = plan_run(RunRequest(data=tiny_dataset, algo="packnet", policy="resnet_t", preset=PRESET))
-        return Trainer(plan, out, RunOptions(stop_after=stop_after))
-
-    whole = trainer(tmp_path / "whole").run()
-    stopped = trainer(tmp_path / "sweep", stop_after=1).run()
+    whole = _trainer(tiny_dataset, tmp_path / "whole", "packnet").run()
+    stopped = _trainer(tiny_dataset, tmp_path / "sweep", "packnet", stop_after=1).run()
     assert stopped.stage[0] == "done" and stopped.stage[1] != "done" and not stopped.complete
     assert not (tmp_path / "sweep" / "checkpoints" / "task_001.safetensors").exists()
     shutil.copytree(tmp_path / "sweep", tmp_path / "kept")
-    continued = trainer(tmp_path / "kept").run()
+    continued = _trainer(tiny_dataset, tmp_path / "kept", "packnet").run()
     assert continued.complete and continued.to_dict() == whole.to_dict()
     for name in ("task_000", "task_001"):
         a = read_checkpoint(tmp_path / "whole" / "checkpoints" / f"{name}.safetensors")["policy"]
         b = read_checkpoint(tmp_path / "kept" / "checkpoints" / f"{name}.safetensors")["policy"]
         assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
-    plan = plan_run(RunRequest(data=tiny_dataset, algo="mtl", policy="resnet_t", preset=PRESET))
     with pytest.raises(ValueError, match="--stop-after applies to algorithms that learn task by task"):
-        Trainer(plan, tmp_path / "mtl", RunOptions(stop_after=1))
+        _trainer(tiny_dataset, tmp_path / "mtl", "mtl", stop_after=1)
