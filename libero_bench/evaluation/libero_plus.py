@@ -190,7 +190,7 @@ def plus_markdown(table: dict[str, Any]) -> str:
     if skipped:
         lines += [
             "",
-            "Not run (their assets were not given, or an added object this version cannot load): "
+            "Not run (their assets were not given): "
             + ", ".join(f"{TITLES[c]} {k}" for c, k in skipped.items())
             + ".",
         ]

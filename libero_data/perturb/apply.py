@@ -1,10 +1,12 @@
 """Applying a :class:`~libero_data.perturb.spec.Perturbation` to a built LIBERO scene.
 
-``LiberoEnv`` calls these three for every perturbation, whatever its kind; each hands the work
+``LiberoEnv`` calls these four for every perturbation, whatever its kind; each hands the work
 to the kind's hook of the same name (:mod:`libero_data.perturb.kinds`), a no-op where the kind
 does not define it, or to a LIBERO-Plus task's (:mod:`libero_data.perturb.plus_hooks`). The simulator
 never names a kind.
 
+- :func:`prepare_build` once, before the scene is built (a LIBERO-Plus task's added objects:
+  their models made known to LIBERO's object registry);
 - :func:`apply_scene` once, after the scene is built (e.g. ``camera``, ``lighting``,
   ``texture``: only what cameras see changes, physics is untouched);
 - :func:`start_robot` after each reset (e.g. ``robot_init``): says whether it moved anything, so
@@ -20,6 +22,11 @@ from libero_data.perturb.kinds import get_kind
 from libero_data.perturb.kinds.base import Kind
 from libero_data.perturb.plus_hooks import KIND as PLUS
 from libero_data.perturb.spec import Perturbation
+
+
+def prepare_build(p: Perturbation) -> None:
+    """Make ready what building a scene with ``p`` needs (before LIBERO builds it)."""
+    _hooks(p.kind).prepare_build(p)
 
 
 def apply_scene(raw: Any, p: Perturbation) -> None:

@@ -1,5 +1,5 @@
 """The simulator's part of a LIBERO-Plus task (:mod:`libero_data.tasks.plus`): its agentview camera,
-its arm's start and its image noise, applied through the same three hooks as our kinds
+its arm's start, its added objects and its image noise, applied through the same hooks as our kinds
 (:mod:`libero_data.perturb.apply`) from the perturbation record its BDDL file carries.
 
 - **Camera** (every task: an unchanged view is still rounded as theirs is). Their problem classes
@@ -14,6 +14,8 @@ its arm's start and its image noise, applied through the same three hooks as our
   read the perturbed pose at the reset, pulls the end effector toward that pose during the waiting
   steps (LIBERO's loop, :mod:`libero_data.sim.libero_loop`, reproduces this as it is). Outside that
   loop (``LiberoEnv.reset``: our protocol, the expert) the arm starts at their joint angles.
+- **Added objects** (``objects``: category -> model file and rotation): made known to LIBERO's
+  object registry before the scene is built (:mod:`libero_data.perturb.plus_objects`).
 - **Scene** (light and background tasks: ``scene``): what their scene class changes of LIBERO's,
   applied to the built scene (:mod:`libero_data.perturb.plus_scene`).
 - **Noise** (``noise`` 1-50): the agentview image only, one of their five corruptions at one of
@@ -41,6 +43,12 @@ class LiberoPlus:
     """The hooks of a LIBERO-Plus task (see the module docstring)."""
 
     name = KIND
+
+    def prepare_build(self, p: Drawn) -> None:
+        if p.params.get("objects"):
+            from libero_data.perturb.plus_objects import register_objects
+
+            register_objects(p.params["objects"])
 
     def apply_scene(self, raw: Any, p: Drawn) -> None:
         import mujoco

@@ -102,14 +102,16 @@ class LiberoEnv:
         self.language = self.task.language if self.task is not None else self.problem.language
         self.backend = select_backend(self.config.renderer) if self.config.cameras else None
         self._gl_info: dict[str, str] | None = None
+        self.perturbation = _perturbation_of(self.problem.perturbation)
+        if self.perturbation is not None:
+            from libero_data.perturb import apply as hooks
+
+            hooks.prepare_build(self.perturbation)
         self._env = self._build()
         self._trim_step()
         self.fast_images: FastImages | None = None  # render_quality="fast": its renderers (tests, benchmarks)
-        self.perturbation = _perturbation_of(self.problem.perturbation)
         if self.perturbation is not None:
-            from libero_data.perturb.apply import apply_scene
-
-            apply_scene(self._env, self.perturbation)
+            hooks.apply_scene(self._env, self.perturbation)
         model_cameras = set(self._env.sim.model.camera_names)
         for name in unknown:
             if name not in model_cameras:

@@ -28,14 +28,14 @@ from libero_data.tasks.plus import (
     plus_files,
     their_prompt,
 )
-from libero_data.tasks.plus_scenes import PlusScene, libero_textures, plus_objects, plus_scenes
+from libero_data.tasks.plus_scenes import PlusObject, PlusScene, libero_textures, plus_objects, plus_scenes
 from libero_data.tasks.task import Suite, Task, language_from_name
 
 if TYPE_CHECKING:
     from libero_data.tasks.plus_files import PlusFiles
 
 #: The cache's format: a change of what is written makes a new folder's content.
-FORMAT = 3
+FORMAT = 4
 _PROBLEM = re.compile(r"\(define\s+\(problem\s+([^\s)]+)\s*\)")
 _LANGUAGE = re.compile(r"\(:language\s+([^)]*)\)")
 _OBJECT = re.compile(r"\s-\s+([A-Za-z0-9_]+)")
@@ -102,7 +102,7 @@ class _Context:
 
     files: PlusFiles
     scenes: dict[str, PlusScene]
-    objects: dict[str, str]
+    objects: dict[str, PlusObject]
     textures: Path | None
     assets: Path | None
 
@@ -124,9 +124,18 @@ class _Context:
                     needs.append(rel)
                 chosen[part] = found
             record["params"]["scene"] = chosen
+        added: dict[str, Any] = {}
         for category in _OBJECT.findall(_objects(text)):
-            if category in self.objects:
-                needs.append(f"object:{category}:{self.objects[category]}")
+            model = self.objects.get(category)
+            if model is None:  # one of LIBERO's
+                continue
+            found = self._find(model.path, own=False)
+            if found is None:
+                needs.append(model.path)
+            else:
+                added[category] = {"model": found, "rotation": [list(r) for r in model.rotation]}
+        if added:
+            record["params"]["objects"] = added
         return record, text, needs
 
     def _find(self, rel: str, *, own: bool) -> str | None:
@@ -146,13 +155,6 @@ def _objects(text: str) -> str:
 
 def _missing(task: str, category: str, needs: list[str], assets: Path | None) -> str:
     """One sentence naming what the task lacks, or ""."""
-    objects = [n.split(":", 2) for n in needs if n.startswith("object:")]
-    if objects:
-        _tag, name, path = objects[0]
-        return (
-            f"LIBERO-Plus task {task} ({category}) adds their object {name} (assets/{path}), which this "
-            "version cannot load into LIBERO's scene yet"
-        )
     if not needs:
         return ""
     where = f"in {assets}" if assets is not None else "(their assets archive, not given)"

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from libero_data.errors import FileFormatError
+
 if TYPE_CHECKING:
     from libero_data.tasks.plus_files import PlusFiles
 
@@ -124,11 +126,21 @@ def _styles(files: PlusFiles) -> tuple[dict[str, str], dict[str, str]]:
     return tables.get("FLOOR_STYLE", {}), tables.get("WALL_STYLE", {})
 
 
+@dataclass(frozen=True)
+class PlusObject:
+    """An object class of theirs: its model file (relative to their assets folder) and the
+    orientation their placement sampler gives it, radians per axis (``{"x": (low, high), ...}``,
+    composed in that order), as their class sets ``self.rotation``."""
+
+    path: str
+    rotation: tuple[tuple[str, float, float], ...]
+
+
 @functools.cache
-def plus_objects(files: PlusFiles) -> dict[str, str]:
-    """Their added object categories -> the model file in their assets folder."""
+def plus_objects(files: PlusFiles) -> dict[str, PlusObject]:
+    """Their added object categories -> what loading one needs."""
     tree = ast.parse(files.read(OBJECTS), filename=files.where(OBJECTS))
-    objects: dict[str, str] = {}
+    objects: dict[str, PlusObject] = {}
     for node in tree.body:
         if not isinstance(node, ast.ClassDef):
             continue
@@ -145,8 +157,48 @@ def plus_objects(files: PlusFiles) -> dict[str, str]:
         found = [p for p in [*strings, *paths] if "new_objects/" in p]
         if found:
             path = found[0][found[0].index("new_objects/") :]
-            objects[_category(node.name)] = path
+            objects[_category(node.name)] = PlusObject(path, _rotation(node, files.where(OBJECTS)))
     return objects
+
+
+def _rotation(node: ast.ClassDef, where: str) -> tuple[tuple[str, float, float], ...]:
+    """``self.rotation = {"x": (a, b), ...}`` of a class, its angles evaluated (numbers, ``np.pi``,
+    + - * /); () where the class sets none."""
+    for item in ast.walk(node):
+        if (
+            isinstance(item, ast.Assign)
+            and isinstance(item.targets[0], ast.Attribute)
+            and item.targets[0].attr == "rotation"
+            and isinstance(item.value, ast.Dict)
+        ):
+            out = []
+            for key, value in zip(item.value.keys, item.value.values, strict=True):
+                if not (
+                    isinstance(key, ast.Constant) and isinstance(value, ast.Tuple) and len(value.elts) == 2
+                ):
+                    raise FileFormatError(
+                        f"LIBERO-Plus: {where}: class {node.name} has a rotation this reader does not know"
+                    )
+                low, high = (_angle(e, where) for e in value.elts)
+                out.append((str(key.value), low, high))
+            return tuple(out)
+    return ()
+
+
+def _angle(node: ast.expr, where: str) -> float:
+    import math
+    import operator
+
+    binary = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
+    if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
+        return float(node.value)
+    if isinstance(node, ast.Attribute) and node.attr == "pi":
+        return math.pi
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        return -_angle(node.operand, where)
+    if isinstance(node, ast.BinOp) and type(node.op) in binary:
+        return float(binary[type(node.op)](_angle(node.left, where), _angle(node.right, where)))
+    raise FileFormatError(f"LIBERO-Plus: {where}: an angle this reader does not know: {ast.unparse(node)}")
 
 
 def _category(class_name: str) -> str:

@@ -28,6 +28,9 @@ class Probe(Kind):
     def sample(self, m: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
         return {"marker": int(m["marker"])}
 
+    def prepare_build(self, p: Any) -> None:
+        self.calls.append("prepare_build")
+
     def apply_scene(self, raw: Any, p: Any) -> None:
         self.calls.append("apply_scene")
 
@@ -71,11 +74,11 @@ def test_a_new_kind_s_hooks_are_each_called(probe: Probe, tmp_path: Path) -> Non
     path = tmp_path / "probe.bddl"
     path.write_text(write(dataclasses.replace(task.problem, perturbation=drawn.to_json())))
     with LiberoEnv(path, EnvConfig(cameras=())) as env, LiberoEnv(task, EnvConfig(cameras=())) as plain:
-        assert probe.calls == ["apply_scene"]  # once, when the scene is built
+        assert probe.calls == ["prepare_build", "apply_scene"]  # once before the scene is built, once after
         obs = env.reset(seed=5, render=False)
-        assert probe.calls == ["apply_scene", "start_robot 5", "observe"]
+        assert probe.calls == ["prepare_build", "apply_scene", "start_robot 5", "observe"]
         assert obs["probe"] == 3
         moved = obs["joint_pos"][0] - plain.reset(seed=5, render=False)["joint_pos"][0]
         assert moved == pytest.approx(0.1, abs=1e-5)  # the arm starts where the hook put it
         env.step(np.zeros(7, dtype=np.float32))
-        assert probe.calls[-1] == "observe" and len(probe.calls) == 4
+        assert probe.calls[-1] == "observe" and len(probe.calls) == 5

@@ -257,3 +257,51 @@ def test_a_camera_task_s_demonstration_is_libero_s_seen_from_elsewhere(plus: Pat
         (chunk,) = sorted((tmp_path / name / "data").rglob("*.parquet"))
         actions[name] = pq.read_table(chunk).column("action").to_pylist()
     assert actions["plus"] == actions["libero"]
+
+
+#: An added object's model in the layout of theirs: the body named ``object`` right under the world
+#: body (robosuite's own models put it one level deeper), with the sites robosuite measures by.
+OBJECT_XML = """<mujoco model="probe"><worldbody><body name="object">
+<geom type="box" size="0.02 0.02 0.03" density="100" group="0" rgba="0.8 0.2 0.2 1"/>
+<geom type="box" size="0.02 0.02 0.03" group="1" contype="0" conaffinity="0" rgba="0.8 0.2 0.2 1"/>
+<site name="bottom_site" pos="0 0 -0.03" size="0.005" rgba="0 0 0 0"/>
+<site name="top_site" pos="0 0 0.03" size="0.005" rgba="0 0 0 0"/>
+<site name="horizontal_radius_site" pos="0.02 0.02 0" size="0.005" rgba="0 0 0 0"/>
+</body></worldbody></mujoco>"""
+
+
+def test_an_added_object_task_loads_their_models_and_starts_from_its_stored_state(
+    plus: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Their archive cannot be downloaded here: each added object's model is one written in
+    their layout (a box), which is what the mechanism reads. The stored init state, which holds
+    every added object's pose, fits the built scene and puts each object there."""
+    import re
+
+    from libero_data.sim.env import EnvConfig, LiberoEnv
+    from libero_data.tasks import get_suite
+    from libero_data.tasks.plus import ASSETS_VAR, plus_files
+    from libero_data.tasks.plus_scenes import plus_objects
+
+    info = next(i for i in plus_infos(SUITE) if i.parsed.variant.startswith("add_") and i.parsed.base == BASE)
+    monkeypatch.delenv(ASSETS_VAR, raising=False)
+    refused = get_suite(SUITE).tasks[info.index].missing
+    assert "needs new_objects/" in refused and "pass --plus-assets DIR" in refused
+    objects = plus_objects(plus_files())
+    text = plus_files().read(f"bddl_files/libero_object/{info.parsed.bddl_name}").decode()
+    added = {c: objects[c] for c in re.findall(r"\s-\s+([A-Za-z0-9_]+)", text) if c in objects}
+    assert added
+    for model in added.values():
+        (tmp_path / "assets" / model.path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / "assets" / model.path).write_text(OBJECT_XML)
+    monkeypatch.setenv(ASSETS_VAR, str(tmp_path / "assets"))
+    task = get_suite(SUITE).tasks[info.index]
+    assert not task.missing
+    state = task.init_states()[0]
+    with LiberoEnv(task, EnvConfig(cameras=("agentview",), image_size=64)) as env:
+        assert env.state_dim == state.shape[0]  # their stored state fits the scene built here
+        obs = env.reset(state, seed=0)
+        names = [o.name for o in env.problem.objects if o.category in added]
+        assert names and all(name in obs["object_poses"] for name in names)
+        body = env.raw.sim.model.body_name2id(env.raw.objects_dict[names[0]].root_body)
+        np.testing.assert_allclose(env.raw.sim.data.xpos[body], obs["object_poses"][names[0]][:3], atol=1e-6)

@@ -170,7 +170,10 @@ def test_a_task_without_its_asset_is_refused_in_one_sentence(
     assert sentence.endswith("pass --plus-assets DIR, the folder their assets.zip unpacks to")
     assert "\n" not in sentence
     added = next(i for i in infos if i.parsed.variant.startswith("add_"))
-    assert "adds their object" in get_suite("plus/libero_goal").tasks[added.index].missing
+    sentence = get_suite("plus/libero_goal").tasks[added.index].missing
+    assert sentence.startswith(
+        f"LIBERO-Plus task plus/libero_goal/{added.index} ({added.category}) needs new_objects/"
+    )
     # libero_object's backgrounds that only swap in LIBERO's own floor and wall images run here
     own = [
         t
@@ -216,3 +219,22 @@ def test_the_command_line_lists_their_suites_and_refuses_other_files(plus: Path,
     assert (
         refused.stderr.strip().startswith("error: LIBERO-Plus:") and "holds no benchmark/" in refused.stderr
     )
+
+
+def test_their_added_objects_are_read_with_their_models_and_rotations(plus: Path) -> None:
+    import math
+
+    from libero_data.perturb.plus_objects import _rotation
+    from libero_data.tasks.plus import plus_files
+    from libero_data.tasks.plus_scenes import plus_objects
+
+    objects = plus_objects(plus_files())
+    assert len(objects) == 867
+    assert all(o.path.startswith("new_objects/") and o.path.endswith(".xml") for o in objects.values())
+    # every one turns -90 degrees about x, -180 about y, 180 about z, composed in that order:
+    # a quarter turn about x, which LIBERO's one-axis sampler can give
+    assert {o.rotation for o in objects.values()} == {
+        (("x", -math.pi / 2, -math.pi / 2), ("y", -math.pi, -math.pi), ("z", math.pi, math.pi))
+    }
+    angles, axis = _rotation(next(iter(objects.values())).rotation)
+    assert axis == "x" and angles == pytest.approx((math.pi / 2, math.pi / 2))

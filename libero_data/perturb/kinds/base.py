@@ -65,6 +65,10 @@ class Kind:
         """The concrete values drawn for one variant, from the level's magnitudes ``m``."""
         raise NotImplementedError(f"{self.name} rewrites the task; it draws no perturbation record")
 
+    def prepare_build(self, p: Drawn) -> None:
+        """Make ready what building the scene needs (e.g. object models LIBERO does not know);
+        once, before the scene is built."""
+
     def apply_scene(self, raw: Any, p: Drawn) -> None:
         """Change the built scene of ``raw`` (robosuite's environment); once per build."""
 
