@@ -10,6 +10,8 @@ import csv
 import json
 from pathlib import Path
 
+import pytest
+
 from libero_data.cards.expert_table import TARGETS, TASK_FLOOR
 from libero_data.stats import wilson_interval
 from libero_data.tasks import SUITE_NAMES, get_suite
@@ -80,3 +82,27 @@ def test_the_libero_pro_table_covers_its_16_suites_with_50_inits_by_the_same_exp
     settings = json.loads(lines[0])["settings"]
     assert settings["expert"] == main["expert"] and settings["inits"] == main["inits"] == 50
     assert f"expert code: {settings['expert']}" in (folder / "expert_report.md").read_text()
+
+
+def test_the_libero_plus_card_covers_its_sample_by_the_main_tables_expert(
+    plus_wheel: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """cards/libero_plus (benchmarks/plus_expert.py): every task of the stratified sample it names
+    measured, by the expert of the 130 tasks' table, and its by-category table made from them."""
+    from benchmarks.plus_expert import by_category, markdown, sample_refs
+    from libero_data.tasks.plus import ENV_VAR
+
+    monkeypatch.setenv(ENV_VAR, str(plus_wheel))
+    folder = CARDS / "libero_plus"
+    record = json.loads((folder / "by_category.json").read_text())
+    settings = record["settings"]
+    lines = (folder / "expert_report.jsonl").read_text().splitlines()
+    rows = [json.loads(line) for line in lines[1:]]
+    assert sorted(r["ref"] for r in rows) == sorted(
+        sample_refs(settings["per_category"], settings["sample_seed"])
+    )
+    table = by_category(rows)
+    assert record["table"] == json.loads(json.dumps(table))
+    assert (folder / "by_category.md").read_text() == markdown(table, settings)
+    main = json.loads((CARDS / "expert_report.jsonl").read_text().splitlines()[0])["settings"]
+    assert settings["expert"] == main["expert"]
