@@ -13,7 +13,7 @@ pytestmark = pytest.mark.sim
 
 
 def test_replay_writes_a_readable_recording(tiny_dataset: Path, tmp_path: Path) -> None:
-    import rerun.dataframe as rd
+    import rerun.recording as rd
 
     out = tmp_path / "ep1.rrd"
     result = run_cli("replay", str(tiny_dataset), "--episode", "1", "--rrd", str(out))

@@ -28,7 +28,7 @@ def _write(path: Path, key: str) -> None:
 
 
 def test_the_file_appears_whole_and_reads_back(tmp_path: Path) -> None:
-    import rerun.dataframe as rdf
+    import rerun.recording as rdf
 
     out = tmp_path / "a" / "r.rrd"
     _write(out, "k0")
