@@ -232,3 +232,7 @@ class PackNet(Algo):
         super().bind(policy)
         device = next(policy.parameters()).device
         self.masks = {n: m.to(device) for n, m in self.masks.items()}
+        if self.masks and self.task_index >= 0 and not self._frozen:
+            # a loaded state (a task resumed after an epoch): what may not move is what the saved
+            # weights hold, as the masks and the task in progress say
+            self._snapshot()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import random
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -66,19 +67,61 @@ def restore_rng(state: dict[str, Any]) -> None:
     random.setstate(state["python"])
 
 
-def save_epoch_state(path: Path, state: dict[str, Any]) -> Path:
-    """Write the state after a finished epoch of the task in progress atomically."""
-    return save_state(path, {"format": RUN_FORMAT, **state, "rng": rng_state()}, kind=EPOCH_STATE)
+#: the phases of a task an epoch state belongs to: its epochs, or the post-task epochs (PackNet)
+LEARN, POST_TASK = "learn", "post_task"
 
 
-def load_epoch_state(path: Path, positions: list[int]) -> dict[str, Any] | None:
-    """The state :func:`save_epoch_state` wrote for these task positions, or None."""
+@dataclass(frozen=True)
+class Training:
+    """What changes while a task is trained: its epoch states save and restore all of it."""
+
+    policy: Policy
+    algo: Algo
+    optimiser: Any
+    scheduler: Any
+
+    def save(
+        self, path: Path, phase: str, positions: list[int], epoch: int, results: RunResults, **extra: Any
+    ) -> Path:
+        """Write the state after a finished epoch of the task in progress atomically: everything
+        :meth:`restore` needs to go on as if the task had not been interrupted."""
+        state = {
+            "format": RUN_FORMAT,
+            "phase": phase,
+            "positions": positions,
+            "epoch": epoch,
+            "policy": self.policy.state_dict(),
+            "algo": self.algo.state_dict(),
+            "optimiser": self.optimiser.state_dict(),
+            "scheduler": self.scheduler.state_dict() if self.scheduler is not None else None,
+            "results": results.to_dict(),
+            **extra,
+            "rng": rng_state(),
+        }
+        return save_state(path, state, kind=EPOCH_STATE)
+
+    def restore(self, saved: dict[str, Any], results: RunResults) -> None:
+        """Weights, algorithm state, optimiser, schedule, results and random streams as they were
+        after the saved epoch."""
+        self.policy.load_state_dict(saved["policy"])
+        self.algo.load_state_dict(saved["algo"])
+        self.algo.bind(self.policy)
+        self.optimiser.load_state_dict(saved["optimiser"])
+        if self.scheduler is not None and saved["scheduler"] is not None:
+            self.scheduler.load_state_dict(saved["scheduler"])
+        vars(results).update(vars(RunResults.from_dict(saved["results"])))
+        restore_rng(saved["rng"])
+
+
+def load_epoch_state(path: Path, positions: list[int], phase: str = LEARN) -> dict[str, Any] | None:
+    """The state :meth:`Training.save` wrote for these task positions in ``phase``, or None
+    (a state written before phases were recorded belongs to the task's epochs)."""
     if not path.is_file():
         return None
     data = load_state(path, kind=EPOCH_STATE)
     if not isinstance(data, dict) or data.get("format") != RUN_FORMAT or data.get("positions") != positions:
         return None
-    return data
+    return data if data.get("phase", LEARN) == phase else None
 
 
 def load_checkpoint(path: Path, policy: Policy, algo: Algo) -> None:
@@ -98,18 +141,3 @@ def load_initial_weights(path: Path, policy: Policy, device: torch.device, polic
             field="init_checkpoint",
         ) from None
     logger.info("policy initialised from %s", path)
-
-
-def restore_training(
-    saved: dict[str, Any], results: RunResults, policy: Policy, algo: Algo, optimiser: Any, scheduler: Any
-) -> None:
-    """Weights, algorithm state, optimiser, schedule, results and random streams as they were
-    after the saved epoch, so the task goes on as if it had not been interrupted."""
-    policy.load_state_dict(saved["policy"])
-    algo.load_state_dict(saved["algo"])
-    algo.bind(policy)
-    optimiser.load_state_dict(saved["optimiser"])
-    if scheduler is not None and saved["scheduler"] is not None:
-        scheduler.load_state_dict(saved["scheduler"])
-    vars(results).update(vars(RunResults.from_dict(saved["results"])))
-    restore_rng(saved["rng"])

@@ -22,9 +22,9 @@ Everything a run writes lives in its folder (:mod:`libero_bench.runs.folder`). `
 is rewritten after every task stage, the checkpoint before it; running the same command
 again continues after the last finished stage with the same numbers (every task reseeds
 torch from the run seed and the task's position, :func:`libero_data.seeding.run_seed`;
-loaders shuffle from the same seeds). Within a task, the state after each finished epoch
-(weights, optimiser, schedule, best weights so far, results, random streams) is saved too, so
-an interrupted task goes on after its last finished epoch, again with the same numbers.
+loaders shuffle from the same seeds). Within a task, the state after each finished epoch, post-task
+epochs included (weights, optimiser, schedule, best weights so far, results, random streams), is
+saved too, so an interrupted task goes on after its last finished epoch with the same numbers.
 ``RunOptions.stop_after`` ends an invocation after the first tasks on purpose (a sweep).
 """
 
@@ -43,12 +43,13 @@ from libero_bench.rollouts.loop import RolloutResources
 from libero_bench.runs.folder import AFTER, LEARNING, PRUNED, STARTS, STORED, RunFolder, RunResults
 from libero_bench.runs.training_data import TRAINING_DATA, with_relative_paths, write_training_data
 from libero_bench.train.checkpoints import (
+    LEARN,
+    POST_TASK,
+    Training,
     load_checkpoint,
     load_epoch_state,
     load_initial_weights,
-    restore_training,
     save_checkpoint,
-    save_epoch_state,
     seed_everything,
 )
 from libero_bench.train.fitting import loss_epoch, make_optimiser, task_loader, train_epoch
@@ -259,23 +260,27 @@ class Trainer:
             self._write_results(results)
 
     def _learn_task(self, results: RunResults, policy: Policy, algo: Algo, tau: int) -> None:
-        seed_everything(run_seed(self.plan.seed, tau, TASK_START))
-        algo.start_task(tau, policy)
+        # interrupted in its post-task epochs: the task's epochs, pruning and evaluation are done
+        post = load_epoch_state(self.folder.epoch_state(tau), [tau], phase=POST_TASK)
+        if post is None:
+            seed_everything(run_seed(self.plan.seed, tau, TASK_START))
+            algo.start_task(tau, policy)
         loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, LOADER))
-        best = self._epochs(results, policy, algo, loader, [tau], learned_after=tau)
-        for start in STARTS:  # the kept checkpoint's success on the task it learned
-            results.after_of(start)[tau][tau] = results.kept_success(tau, start)
-        factory_loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, END_TASK_LOADER))
-        algo.end_task(tau, lambda: iter(factory_loader))
+        if post is None:
+            self._epochs(results, policy, algo, loader, [tau], learned_after=tau)
+            for start in STARTS:  # the kept checkpoint's success on the task it learned
+                results.after_of(start)[tau][tau] = results.kept_success(tau, start)
+            factory_loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, END_TASK_LOADER))
+            algo.end_task(tau, lambda: iter(factory_loader))
         if algo.post_task_epochs > 0:
-            # the pruned network before fine-tuning (PackNet); not part of the learning curve
-            pruned = self.rounds.evaluate(
-                results, algo, policy, [tau], phase=PRUNED, learned_after=tau, epoch=None
-            )
-            for start, (rate,) in pruned.items():
-                results.pruned_of(start)[tau] = None if math.isnan(rate) else rate
-            results.post_losses[tau] = self._post_task(policy, algo, loader, tau)
-        logger.info("task %d kept the weights of epoch %s", tau, best)
+            if post is None:  # the pruned network before fine-tuning (PackNet); not part of the curve
+                pruned = self.rounds.evaluate(
+                    results, algo, policy, [tau], phase=PRUNED, learned_after=tau, epoch=None
+                )
+                for start, (rate,) in pruned.items():
+                    results.pruned_of(start)[tau] = None if math.isnan(rate) else rate
+            results.post_losses[tau] = self._post_task(results, policy, algo, loader, tau, post)
+        logger.info("task %d kept the weights of epoch %s", tau, results.best_epoch[tau])
         self._save_checkpoint(tau, "trained", policy, algo)
         self.folder.epoch_state(tau).unlink(missing_ok=True)
         results.stage[tau] = "trained"
@@ -294,6 +299,7 @@ class Trainer:
         """Epoch 0..E with evaluations; loads the best weights; returns the kept epoch."""
         p = self.preset
         optimiser, scheduler = make_optimiser(policy, p, p.epochs)
+        training = Training(policy, algo, optimiser, scheduler)
         best_rate = -math.inf
         best_state: dict[str, Any] | None = None
         best_epoch: int | None = None
@@ -307,7 +313,7 @@ class Trainer:
             best_rate, best_epoch, best_state, losses = (
                 saved[k] for k in ("best_rate", "best_epoch", "best_state", "losses")
             )
-            restore_training(saved, results, policy, algo, optimiser, scheduler)
+            training.restore(saved, results)
             logger.info("%s: resuming after epoch %d of %d", name, saved["epoch"], p.epochs)
         for epoch in range(first, p.epochs + 1):
             loader.set_epoch(epoch)
@@ -344,21 +350,16 @@ class Trainer:
                     best_state = {k: v.detach().clone() for k, v in policy.state_dict().items()}
             if scheduler is not None and epoch > 0:
                 scheduler.step()
-            save_epoch_state(
+            training.save(
                 state_path,
-                {
-                    "positions": positions,
-                    "epoch": epoch,
-                    "policy": policy.state_dict(),
-                    "algo": algo.state_dict(),
-                    "optimiser": optimiser.state_dict(),
-                    "scheduler": scheduler.state_dict() if scheduler is not None else None,
-                    "best_rate": best_rate,
-                    "best_epoch": best_epoch,
-                    "best_state": best_state,
-                    "losses": losses,
-                    "results": results.to_dict(),
-                },
+                LEARN,
+                positions,
+                epoch,
+                results,
+                losses=losses,
+                best_rate=best_rate,
+                best_epoch=best_epoch,
+                best_state=best_state,
             )
         if not p.keep_best:
             best_epoch = p.epochs  # keep the last weights
@@ -369,18 +370,26 @@ class Trainer:
             results.best_epoch[pos] = best_epoch
         return best_epoch
 
-    def _post_task(self, policy: Policy, algo: Algo, loader: TaskLoader, tau: int) -> list[dict[str, float]]:
+    def _post_task(
+        self, results: RunResults, policy: Policy, algo: Algo, loader: TaskLoader, tau: int, saved: Any
+    ) -> list[dict[str, float]]:
+        """The post-task epochs (PackNet's fine-tuning after pruning), each saved as it ends."""
         epochs = algo.post_task_epochs
         self.observer.phase(f"task {tau + 1}/{self.K}: {epochs} post-task epochs")
         optimiser, scheduler = make_optimiser(policy, self.preset, epochs)
-        losses = []
-        for epoch in range(1, epochs + 1):
+        losses: list[dict[str, float]] = saved["losses"] if saved is not None else []
+        training = Training(policy, algo, optimiser, scheduler)
+        if saved is not None:
+            training.restore(saved, results)
+            logger.info("%s: resuming after post-task epoch %d", self.plan.tasks[tau].name, saved["epoch"])
+        for epoch in range(len(losses) + 1, epochs + 1):
             loader.set_epoch(self.preset.epochs + epoch)
             label = f"{self.plan.tasks[tau].name}: post-task epoch {epoch}/{epochs}"
             terms = self._fit_epoch(algo, policy, loader, optimiser, label)
             losses.append({"epoch": epoch, **terms})
             if scheduler is not None:
                 scheduler.step()
+            training.save(self.folder.epoch_state(tau), POST_TASK, [tau], epoch, results, losses=losses)
         return losses
 
     def _run_multitask(self, results: RunResults, policy: Policy, algo: Algo) -> None:

@@ -16,6 +16,7 @@ from libero_bench.algos import algo_class, algo_names
 from libero_bench.rollouts.jobs import RolloutJob, RolloutResult
 from libero_bench.runs.saved_policy import read_checkpoint
 from libero_bench.train import rounds
+from libero_bench.train.checkpoints import POST_TASK, load_epoch_state
 from libero_bench.train.presets import SMOKE
 from libero_bench.train.trainer import RunOptions, RunRequest, Trainer, plan_run
 
@@ -188,3 +189,49 @@ def test_a_run_stopped_after_its_first_tasks_goes_on_in_a_copy_of_its_folder_wit
         assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
     with pytest.raises(ValueError, match="--stop-after applies to algorithms that learn task by task"):
         _trainer(tiny_dataset, tmp_path / "mtl", "mtl", stop_after=1)
+
+
+def test_packnet_interrupted_twice_in_its_second_task_goes_on_with_the_same_numbers_and_weights(
+    tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # In its second task PackNet keeps the first task's weights fixed; a resumed epoch must too.
+    # The post-task fine-tuning (after pruning) is saved epoch by epoch like the task's epochs.
+    request = RunRequest(
+        data=tiny_dataset,
+        algo="packnet",
+        policy="resnet_t",
+        preset=PRESET,
+        algo_settings=("post_prune_epochs=2",),
+    )
+    whole = Trainer(plan_run(request), tmp_path / "whole", RunOptions()).run()
+    second = plan_run(request).tasks[1].name
+    fit_epoch = Trainer._fit_epoch
+    state = tmp_path / "resumed" / "checkpoints" / "task_001.epoch.safetensors"
+    for stop_in in (
+        "epoch 2/2",
+        "post-task epoch 2/2",
+    ):  # killed in the task's epochs, then in the fine-tuning
+
+        def interrupted(
+            self: Trainer, algo: Any, policy: Any, loader: Any, optimiser: Any, label: str
+        ) -> Any:
+            if label == f"{second}: {stop_in}":  # noqa: B023 (called before the loop goes on)
+                raise KeyboardInterrupt
+            return fit_epoch(self, algo, policy, loader, optimiser, label)
+
+        monkeypatch.setattr(Trainer, "_fit_epoch", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            Trainer(plan_run(request), tmp_path / "resumed", RunOptions()).run()
+        post = load_epoch_state(state, [1], phase=POST_TASK)
+        assert (post is not None) == stop_in.startswith("post-task")
+    monkeypatch.setattr(Trainer, "_fit_epoch", fit_epoch)
+    scripted.calls = []
+    resumed = Trainer(plan_run(request), tmp_path / "resumed", RunOptions()).run()
+    assert resumed.to_dict() == whole.to_dict() and [len(x) for x in resumed.post_losses] == [2, 2]
+    assert not state.exists()
+    # Resumed in the fine-tuning: the task's pruned network is not evaluated again.
+    assert not any(c["phase"] == "pruned" for c in scripted.calls)
+    for name in ("task_000", "task_001"):
+        a = read_checkpoint(tmp_path / "whole" / "checkpoints" / f"{name}.safetensors")["policy"]
+        b = read_checkpoint(tmp_path / "resumed" / "checkpoints" / f"{name}.safetensors")["policy"]
+        assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
