@@ -190,10 +190,20 @@ class Trainer:
     def _fit_epoch(
         self, algo: Algo, policy: Policy, loader: TaskLoader, optimiser: Any, label: str
     ) -> dict[str, float]:
+        """One epoch, timed and logged; without an optimiser (epoch 0) the loss without training."""
+        started = time.perf_counter()
         self.observer.train_start(label, len(loader))
-        return train_epoch(
-            algo, policy, loader, optimiser, self.preset.grad_clip, label, self.observer.train_step
+        if optimiser is None:
+            terms = loss_epoch(policy, loader, self.observer.train_step)
+        else:
+            clip = self.preset.grad_clip
+            terms = train_epoch(algo, policy, loader, optimiser, clip, label, self.observer.train_step)
+        seconds = round(time.perf_counter() - started, 3)
+        self.folder.append_timing(
+            {"what": "epoch", "label": label, "batches": len(loader), "seconds": seconds}
         )
+        logger.info("%s: loss %.4f", label, terms["total"])
+        return terms
 
     # -- the protocol ------------------------------------------------------------------------------
     def run(self) -> RunResults:
@@ -317,23 +327,9 @@ class Trainer:
             logger.info("%s: resuming after epoch %d of %d", name, saved["epoch"], p.epochs)
         for epoch in range(first, p.epochs + 1):
             loader.set_epoch(epoch)
-            started = time.perf_counter()
             label = f"{name}: epoch {epoch}/{p.epochs}"
-            if epoch == 0:
-                self.observer.train_start(label, len(loader))
-                terms = loss_epoch(policy, loader, self.observer.train_step)
-            else:
-                terms = self._fit_epoch(algo, policy, loader, optimiser, label)
+            terms = self._fit_epoch(algo, policy, loader, optimiser if epoch > 0 else None, label)
             losses.append({"epoch": epoch, **terms})
-            self.folder.append_timing(
-                {
-                    "what": "epoch",
-                    "label": label,
-                    "batches": len(loader),
-                    "seconds": round(time.perf_counter() - started, 3),
-                }
-            )
-            logger.info("%s: loss %.4f", label, terms["total"])
             if epoch in self.eval_epochs:
                 e = self.eval_epochs.index(epoch)
                 rates = self.rounds.evaluate(

@@ -204,6 +204,8 @@ def test_packnet_interrupted_twice_in_its_second_task_goes_on_with_the_same_numb
         algo_settings=("post_prune_epochs=2",),
     )
     whole = Trainer(plan_run(request), tmp_path / "whole", RunOptions()).run()
+    timings = (tmp_path / "whole" / "timings.jsonl").read_text()
+    assert timings.count('"what": "epoch"') == 2 * (3 + 2) and timings.count("post-task epoch") == 4
     second = plan_run(request).tasks[1].name
     fit_epoch = Trainer._fit_epoch
     state = tmp_path / "resumed" / "checkpoints" / "task_001.epoch.safetensors"
