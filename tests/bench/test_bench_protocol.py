@@ -237,3 +237,27 @@ def test_packnet_interrupted_twice_in_its_second_task_goes_on_with_the_same_numb
         a = read_checkpoint(tmp_path / "whole" / "checkpoints" / f"{name}.safetensors")["policy"]
         b = read_checkpoint(tmp_path / "resumed" / "checkpoints" / f"{name}.safetensors")["policy"]
         assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+
+
+def test_the_ewc_probe_reads_a_runs_two_checkpoints(
+    tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator]
+) -> None:
+    # benchmarks/lifelong_ewc_probe.py: where EWC's forgetting lives, from the checkpoints after tasks 0 and 1
+    from benchmarks.lifelong_ewc_probe import markdown, probe
+
+    _trainer(tiny_dataset, tmp_path / "ewc", "ewc").run()
+    row = probe(tmp_path / "ewc")
+    after0 = read_checkpoint(tmp_path / "ewc" / "checkpoints" / "task_000.safetensors")
+    after1 = read_checkpoint(tmp_path / "ewc" / "checkpoints" / "task_001.safetensors")["policy"]
+    anchor = after0["algo"]["anchor"]
+    assert row["penalty_weight"] == 5e4 and row["weights"] == sum(t.numel() for t in anchor.values())
+    assert all(
+        torch.equal(anchor[n], after0["policy"][n]) for n in anchor
+    )  # the anchor: the weights after task 0
+    total = math.sqrt(sum(float((after1[n] - anchor[n]).pow(2).sum()) for n in anchor))
+    halves = math.hypot(row["moved_high_fisher_half"], row["moved_low_fisher_half"])
+    assert total > 0 and halves == pytest.approx(total, rel=1e-5)
+    assert 0.0 <= row["share_stiffness_above_1"] <= 1.0
+    losses = row["task0_loss"]
+    assert len(set(losses.values())) == 4 and all(math.isfinite(v) for v in losses.values())
+    assert "| ewc | 50000 |" in markdown([row])
