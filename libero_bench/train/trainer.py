@@ -282,13 +282,13 @@ class Trainer:
                 results.after_of(start)[tau][tau] = results.kept_success(tau, start)
             factory_loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, END_TASK_LOADER))
             algo.end_task(tau, lambda: iter(factory_loader))
-        if algo.post_task_epochs > 0:
-            if post is None:  # the pruned network before fine-tuning (PackNet); not part of the curve
+            if algo.post_task_epochs > 0:  # the pruned network before fine-tuning (PackNet); not in the curve
                 pruned = self.rounds.evaluate(
                     results, algo, policy, [tau], phase=PRUNED, learned_after=tau, epoch=None
                 )
                 for start, (rate,) in pruned.items():
                     results.pruned_of(start)[tau] = None if math.isnan(rate) else rate
+        if algo.post_task_epochs > 0:
             results.post_losses[tau] = self._post_task(results, policy, algo, loader, tau, post)
         logger.info("task %d kept the weights of epoch %s", tau, results.best_epoch[tau])
         self._save_checkpoint(tau, "trained", policy, algo)
@@ -367,7 +367,13 @@ class Trainer:
         return best_epoch
 
     def _post_task(
-        self, results: RunResults, policy: Policy, algo: Algo, loader: TaskLoader, tau: int, saved: Any
+        self,
+        results: RunResults,
+        policy: Policy,
+        algo: Algo,
+        loader: TaskLoader,
+        tau: int,
+        saved: dict[str, Any] | None,
     ) -> list[dict[str, float]]:
         """The post-task epochs (PackNet's fine-tuning after pruning), each saved as it ends."""
         epochs = algo.post_task_epochs
