@@ -17,10 +17,14 @@
 #   seeds  SeqL, ER and PackNet again with seed 1
 #   all    every part in turn
 #
-# Runs go two at a time, one torch thread each (benchmarks/quick.sh says why); each resumes where it
-# stopped when run again; logs in WORK_DIR/logs/. Datasets, checkpoints and rollouts stay in WORK_DIR;
-# each finished run's config, results and timings are copied to benchmarks/results/lifelong/runs/,
-# then the sweep's table (sweep.md) and the report with the paper's findings (findings.md, report/).
+# RUNS="seql-s0 mtl-s0" limits a part to the runs it names (a session too short for a whole part
+# runs some of its runs; the report is made once every run of the five is on record).
+#
+# Runs go two at a time, one torch thread each (benchmarks/quick.sh says why), or alone on two threads
+# when a part has one run left; each resumes where it stopped when run again; logs in WORK_DIR/logs/.
+# Datasets, checkpoints and rollouts stay in WORK_DIR; each run's config, results and timings are
+# copied to benchmarks/results/lifelong/runs/ as soon as it finishes, then the sweep's table
+# (sweep.md) and the report with the paper's findings (findings.md, report/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work=$(realpath -m "${1:-../lifelong-work}")
@@ -35,30 +39,37 @@ results=benchmarks/results/lifelong
 [[ $preset == smoke ]] && results=$work/results  # a try of the script commits nothing
 mkdir -p "$work/logs"
 
-start_run() {  # name tasks algo seed [run options...]
-  local name=$1 tasks=$2 algo=$3 seed=$4
-  shift 4
+start_run() {  # name tasks algo seed threads [run options...]; on success its files go to $results
+  local name=$1 tasks=$2 algo=$3 seed=$4 threads=$5
+  shift 5
   echo "$(date +%H:%M) start $name (log: $work/logs/$name.log)"
   $lb run --data "$work/object-64" --tasks "$tasks" --algo "$algo" --policy resnet_t --preset "$preset" \
-    --seed "$seed" --workers 2 --threads 1 --out "$work/runs/$name" "$@" >"$work/logs/$name.log" 2>&1
+    --seed "$seed" --workers 2 --threads "$threads" --out "$work/runs/$name" "$@" >"$work/logs/$name.log" 2>&1
+  mkdir -p "$results/runs/$name"  # what the report reads, committed; checkpoints stay in WORK_DIR
+  cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
+  echo "$(date +%H:%M) done $name"
 }
 
-run_all() {  # entries "name|tasks|algo|seed|options", two at a time
-  local pids=() failed=0 entry name tasks algo seed options
-  for entry in "$@"; do
+chosen() {  # name -> is it among $RUNS (every run when RUNS is unset)
+  [[ -z ${RUNS:-} ]] || [[ " $RUNS " == *" $1 "* ]]
+}
+
+run_all() {  # entries "name|tasks|algo|seed|options", two at a time (the last one alone on two threads)
+  local pids=() failed=0 entry name tasks algo seed options threads picked=()
+  for entry in "$@"; do chosen "${entry%%|*}" && picked+=("$entry"); done
+  local left=${#picked[@]}
+  for entry in "${picked[@]}"; do
     while (($(jobs -rp | wc -l) >= 2)); do wait -n || true; done
     IFS='|' read -r name tasks algo seed options <<<"$entry"
+    threads=1
+    ((left == 1 && $(jobs -rp | wc -l) == 0)) && threads=2
+    left=$((left - 1))
     # shellcheck disable=SC2086  # the options are words
-    start_run "$name" "$tasks" "$algo" "$seed" $options &
+    start_run "$name" "$tasks" "$algo" "$seed" "$threads" $options &
     pids+=($!)
   done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   ((failed == 0)) || { echo "a run failed; its log in $work/logs says why" >&2; exit 1; }
-  for entry in "$@"; do  # what the report reads, committed; checkpoints stay in WORK_DIR
-    name=${entry%%|*}
-    mkdir -p "$results/runs/$name"
-    cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
-  done
 }
 
 post_prune=16
@@ -70,8 +81,16 @@ setting() {  # a sweep run's name -> its algorithm settings
     *) echo "lifelong.sh: $1 is not a sweep run" >&2; exit 2 ;;
   esac
 }
-continue_from() {  # sweep-run run: the kept sweep run's folder becomes the run's, which goes on from it
-  [[ -e $work/runs/$2 ]] || cp -a "$work/runs/$1" "$work/runs/$2"
+continue_from() {  # sweep-run run: the kept sweep run's folder becomes the run's, which goes on from it;
+  # without it (a new WORK_DIR: the sweep's checkpoints are not committed) the run learns tasks 0 and 1
+  # itself, with the same data, seed and settings
+  chosen "$2" || return 0
+  [[ -e $work/runs/$2 ]] && return 0
+  if [[ -d $work/runs/$1 ]]; then
+    cp -a "$work/runs/$1" "$work/runs/$2"
+  else
+    echo "$work/runs/$1 is not here: $2 learns tasks 0 and 1 itself"
+  fi
 }
 if [[ $part == data || $part == all ]]; then
   $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task "$episodes" --image-size 64 \
@@ -105,6 +124,6 @@ fi
 if [[ $part == seeds || $part == all ]]; then
   run_all "seql-s1|0,1,2|seql|1|" "er-s1|0,1,2|er|1|" "packnet-s1|0,1,2|packnet|1|$(setting "$packnet_run")"
 fi
-if [[ $part == five || $part == seeds || $part == all ]]; then
+if [[ $part == five || $part == seeds || $part == all ]] && [[ -z ${RUNS:-} ]]; then
   .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --out "$results"
 fi

@@ -293,6 +293,39 @@ def cost_markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def went_on_from(runs: Path, algo: str, run: Path) -> str | None:
+    """The sweep run of ``algo`` that ``run`` went on from (its folder was copied and resumed: its
+    ``timings.jsonl`` begins with the sweep run's), or None when it learned every task itself."""
+    text = (run / "timings.jsonl").read_text()
+    for sweep in sorted(runs.glob(f"sweep-{algo}-*")):
+        head = (sweep / "timings.jsonl").read_text() if (sweep / "timings.jsonl").is_file() else ""
+        if head and text.startswith(head):
+            return sweep.name
+    return None
+
+
+def origins_markdown(runs: Path) -> str:
+    """One sentence per swept algorithm's seed-0 run: went on from its sweep run, or learned
+    tasks 0 and 1 again itself."""
+    lines = []
+    for algo in SWEPT:
+        run = runs / f"{algo}-s0"
+        if not (run / "timings.jsonl").is_file():
+            continue
+        source = went_on_from(runs, algo, run)
+        if source:
+            lines.append(
+                f"{NAMES[algo]} (`{run.name}`) went on from the sweep run kept (`{source}`): its row counts "
+                "tasks 0 and 1 once more (spent once, in that sweep run)."
+            )
+        else:
+            lines.append(
+                f"{NAMES[algo]} (`{run.name}`) learned tasks 0 and 1 again itself, with the sweep's kept setting "
+                "(the sweep run's checkpoints were not at hand), so its row counts them in full."
+            )
+    return " ".join(lines) + ("\n" if lines else "")
+
+
 #: The setting each sweep varies (``benchmarks/lifelong.sh sweep``: runs named ``sweep-<algo>-<value>``).
 SWEPT = {"ewc": "penalty_weight", "packnet": "prune_fraction"}
 
@@ -389,8 +422,8 @@ def main() -> None:
         + findings_markdown(entries)
         + "\n## What the runs cost\n\nTwo runs at a time on two cores, one torch thread each (`timings.jsonl` of each run).\n\n"
         + cost_markdown(cost_rows(args.runs))
-        + "\nThe EWC and PackNet runs of the table went on from the sweep run kept: their rows count tasks 0 "
-        "and 1 once more (spent once, in that sweep run).\n"
+        + "\n"
+        + origins_markdown(args.runs)
     )
     write_text(args.out / "findings.md", text)
     print(text)

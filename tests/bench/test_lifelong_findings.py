@@ -4,6 +4,7 @@ one goes the other way, and otherwise not resolved."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from benchmarks.lifelong_report import ALGOS, FINDINGS, findings
@@ -91,3 +92,22 @@ def test_the_sweep_keeps_the_highest_auc_then_the_least_forgetting() -> None:
     assert (
         pick([row(500, 0.4, 0.3), row(5000, 0.9, 0.1, done=1)])["value"] == 500
     )  # an unfinished run is not kept
+
+
+def test_the_report_says_whether_a_run_went_on_from_its_sweep_run(tmp_path: Path) -> None:
+    from benchmarks.lifelong_report import origins_markdown, went_on_from
+
+    sweep_lines = '{"what": "epoch", "seconds": 80.0}\n{"what": "evaluate", "seconds": 280.0}\n'
+    for name, text in {
+        "sweep-ewc-500": sweep_lines,
+        "sweep-packnet-075": sweep_lines.replace("80.0", "81.0"),
+        "ewc-s0": sweep_lines + '{"what": "epoch", "seconds": 79.0}\n',  # copied, then resumed
+        "packnet-s0": sweep_lines,  # timed as EWC's sweep run, but no PackNet sweep run begins it
+    }.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "timings.jsonl").write_text(text)
+    assert went_on_from(tmp_path, "ewc", tmp_path / "ewc-s0") == "sweep-ewc-500"
+    assert went_on_from(tmp_path, "packnet", tmp_path / "packnet-s0") is None
+    text = origins_markdown(tmp_path)
+    assert "EWC (`ewc-s0`) went on from the sweep run kept (`sweep-ewc-500`)" in text
+    assert "PackNet (`packnet-s0`) learned tasks 0 and 1 again itself" in text
