@@ -81,6 +81,9 @@ class Algo:
         self.config = config
         self.task_index = -1
         self._policy: Policy | None = None
+        #: task number -> that task's data as ``end_task`` got it (the trainer sets it; ER rebuilds
+        #: a memory loaded without its windows from it)
+        self.task_data: Callable[[int], DataloaderFactory] | None = None
 
     @classmethod
     def from_config(cls, config: AlgoConfig) -> Self:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,6 +72,26 @@ class EvaluationRounds:
                 for i, t in enumerate(plan.tasks)
             ]
         return self._eval_tasks
+
+    def join_rollouts(self, results: RunResults) -> None:
+        """Join every rollout of ``results`` into ``RUN/rollouts`` (one LeRobot dataset)."""
+        from libero_bench.rollouts.session import RolloutSession
+
+        session = RolloutSession(self.folder.root)
+        session.records = {r["key"]: r for r in results.rollouts}
+        started = time.perf_counter()
+        count = session.join(
+            self.plan.rollouts_meta(self.folder.root.name),
+            {t.name: Path(t.env_ref).read_text() for t in self.eval_tasks()},
+        )
+        self.folder.append_timing(
+            {
+                "what": "collect_rollouts",
+                "episodes": count,
+                "seconds": round(time.perf_counter() - started, 3),
+            }
+        )
+        logger.info("rollout dataset: %d episodes in %s", count, self.folder.rollouts)
 
     def jobs(
         self, group: Sequence[int], *, phase: str, learned_after: int, epoch: int | None

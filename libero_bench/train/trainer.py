@@ -18,14 +18,13 @@ MTL (``algo.needs_all_tasks``) trains once on all tasks' data, evaluates every t
 evaluated epoch and keeps the checkpoint with the best mean success; ``after[tau, k]`` is
 that checkpoint's success on ``k`` for every ``tau``.
 
-Everything a run writes lives in its folder (:mod:`libero_bench.runs.folder`). ``results.json``
-is rewritten after every task stage, the checkpoint before it; running the same command
-again continues after the last finished stage with the same numbers (every task reseeds
-torch from the run seed and the task's position, :func:`libero_data.seeding.run_seed`;
-loaders shuffle from the same seeds). Within a task, the state after each finished epoch, post-task
-epochs included (weights, optimiser, schedule, best weights so far, results, random streams), is
-saved too, so an interrupted task goes on after its last finished epoch with the same numbers.
-``RunOptions.stop_after`` ends an invocation after the first tasks on purpose (a sweep).
+A run's folder (:mod:`libero_bench.runs.folder`) holds all it writes. ``results.json`` is rewritten
+after every task stage, the checkpoint before it; the same command again goes on after the last
+finished stage with the same numbers (each task reseeds from the run seed and its position,
+:func:`libero_data.seeding.run_seed`; loaders shuffle from the same seeds). The state after each
+finished epoch, post-task epochs included (weights, optimiser, schedule, best weights so far,
+results, random streams), is saved too, so an interrupted task goes on after its last finished
+epoch with the same numbers. ``RunOptions.stop_after`` ends an invocation after the first tasks.
 """
 
 from __future__ import annotations
@@ -72,6 +71,7 @@ from libero_data.seeding import END_TASK_LOADER, LOADER, TASK_START, WEIGHTS, ru
 
 if TYPE_CHECKING:
     from libero_bench.algos import Algo
+    from libero_bench.algos.base import DataloaderFactory
     from libero_bench.data.windows import TaskLoader
     from libero_bench.policies.base import Policy
 
@@ -166,8 +166,17 @@ class Trainer:
     def _new_algo(self) -> Algo:
         from libero_bench.algos import algo_config_from_dict, build_algo
 
-        config = algo_config_from_dict(self.plan.algo_config)
-        return build_algo(config)
+        algo = build_algo(algo_config_from_dict(self.plan.algo_config))
+        algo.task_data = self._end_task_data
+        return algo
+
+    def _end_task_data(self, tau: int) -> DataloaderFactory:
+        """Task ``tau``'s data as ``end_task`` gets it (every task's for MTL)."""
+        loader = self._loader(
+            list(range(self.K)) if self.plan.needs_all_tasks else [tau],
+            seed=run_seed(self.plan.seed, tau, END_TASK_LOADER),
+        )
+        return lambda: iter(loader)
 
     def _save_checkpoint(self, task: int, stage: str, policy: Policy, algo: Algo) -> None:
         save_checkpoint(
@@ -280,8 +289,7 @@ class Trainer:
             self._epochs(results, policy, algo, loader, [tau], learned_after=tau)
             for start in STARTS:  # the kept checkpoint's success on the task it learned
                 results.after_of(start)[tau][tau] = results.kept_success(tau, start)
-            factory_loader = self._loader([tau], seed=run_seed(self.plan.seed, tau, END_TASK_LOADER))
-            algo.end_task(tau, lambda: iter(factory_loader))
+            algo.end_task(tau, self._end_task_data(tau))
             if algo.post_task_epochs > 0:  # the pruned network before fine-tuning (PackNet); not in the curve
                 pruned = self.rounds.evaluate(
                     results, algo, policy, [tau], phase=PRUNED, learned_after=tau, epoch=None
@@ -405,8 +413,7 @@ class Trainer:
             algo.start_task(0, policy)
             loader = self._loader(everything, seed=run_seed(self.plan.seed, 0, LOADER))
             best = self._epochs(results, policy, algo, loader, everything, learned_after=0)
-            factory_loader = self._loader(everything, seed=run_seed(self.plan.seed, 0, END_TASK_LOADER))
-            algo.end_task(0, lambda: iter(factory_loader))
+            algo.end_task(0, self._end_task_data(0))
             self._save_checkpoint(0, "trained", policy, algo)
             self.folder.epoch_state(0).unlink(missing_ok=True)
             kept = self.eval_epochs.index(best) if best is not None else len(self.eval_epochs) - 1
@@ -420,23 +427,7 @@ class Trainer:
     # -- the rollout dataset -------------------------------------------------------------------------
     def collect_rollouts(self, results: RunResults) -> None:
         """Join every rollout of ``results`` into ``RUN/rollouts`` (one LeRobot dataset)."""
-        from libero_bench.rollouts.session import RolloutSession
-
-        session = RolloutSession(self.folder.root)
-        session.records = {r["key"]: r for r in results.rollouts}
-        started = time.perf_counter()
-        count = session.join(
-            self.plan.rollouts_meta(self.folder.root.name),
-            {t.name: Path(t.env_ref).read_text() for t in self.rounds.eval_tasks()},
-        )
-        self.folder.append_timing(
-            {
-                "what": "collect_rollouts",
-                "episodes": count,
-                "seconds": round(time.perf_counter() - started, 3),
-            }
-        )
-        logger.info("rollout dataset: %d episodes in %s", count, self.folder.rollouts)
+        self.rounds.join_rollouts(results)
 
 
 def run_lifelong(

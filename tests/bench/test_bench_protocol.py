@@ -261,3 +261,48 @@ def test_the_ewc_probe_reads_a_runs_two_checkpoints(
     losses = row["task0_loss"]
     assert len(set(losses.values())) == 4 and all(math.isfinite(v) for v in losses.values())
     assert "| ewc | 50000 |" in markdown([row])
+
+
+def test_er_resumed_from_states_without_its_memory_rebuilds_it_and_goes_on_bit_for_bit(
+    tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A run carried to another machine leaves ER's windows behind (120 MB at 64x64): the memory
+    # updates it records rebuild them from the data, and the run goes on with the same numbers.
+    from libero_bench.algos.er import without_memories
+    from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE
+    from libero_bench.runs.state_files import load_state, save_state
+
+    whole = _trainer(tiny_dataset, tmp_path / "whole", "er").run()
+    second = (
+        plan_run(RunRequest(data=tiny_dataset, algo="er", policy="resnet_t", preset=PRESET)).tasks[1].name
+    )
+    fit_epoch = Trainer._fit_epoch
+
+    def interrupted(self: Trainer, algo: Any, policy: Any, loader: Any, optimiser: Any, label: str) -> Any:
+        if label == f"{second}: epoch 2/2":
+            raise KeyboardInterrupt
+        return fit_epoch(self, algo, policy, loader, optimiser, label)
+
+    monkeypatch.setattr(Trainer, "_fit_epoch", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        _trainer(tiny_dataset, tmp_path / "resumed", "er").run()
+    monkeypatch.setattr(Trainer, "_fit_epoch", fit_epoch)
+    checkpoints = tmp_path / "resumed" / "checkpoints"
+    for path, kind in (
+        (checkpoints / "task_000.safetensors", CHECKPOINT),
+        (checkpoints / "task_001.epoch.safetensors", EPOCH_STATE),
+    ):
+        state = load_state(path, kind=kind)
+        assert len(state["algo"]["fills"]) == 1 and state["algo"]["memories"]
+        save_state(path, {**state, "algo": without_memories(state["algo"])}, kind=kind)
+        assert "memories" not in load_state(path, kind=kind)["algo"]
+    resumed = _trainer(tiny_dataset, tmp_path / "resumed", "er").run()
+    assert resumed.to_dict() == whole.to_dict()
+    a = read_checkpoint(tmp_path / "whole" / "checkpoints" / "task_001.safetensors")
+    b = read_checkpoint(checkpoints / "task_001.safetensors")
+    for part in ("policy",):
+        assert a[part].keys() == b[part].keys() and all(torch.equal(a[part][k], b[part][k]) for k in a[part])
+    memories_a, memories_b = a["algo"]["memories"], b["algo"]["memories"]
+    assert memories_a.keys() == memories_b.keys() == {0, 1}
+    for task in memories_a:
+        assert all(torch.equal(memories_a[task][k], memories_b[task][k]) for k in memories_a[task])
