@@ -16,6 +16,9 @@
 #          PACKNET_RUN name another sweep run), copied, instead of learning tasks 0 and 1 again
 #   seeds  SeqL, ER and PackNet again with seed 1
 #   all    every part in turn
+#   carry-out  pack WORK's unfinished runs into CARRY (default benchmarks/results/lifelong/carry, to
+#          commit): a session's machine may keep only the repository (benchmarks/lifelong_carry.py)
+#   carry-in   put them back into WORK after `data` has made the data again (refused if it differs)
 #
 # RUNS="seql-s0 mtl-s0" limits a part to the runs it names (a session too short for a whole part
 # runs some of its runs; the report is made once every run of the five is on record).
@@ -29,7 +32,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 work=$(realpath -m "${1:-../lifelong-work}")
 part="${2:-all}"
-case "$part" in data | sweep | five | seeds | all) ;; *) echo "lifelong.sh: PART must be data, sweep, five, seeds or all, not '$part'" >&2; exit 2 ;; esac
+case "$part" in
+  data | sweep | five | seeds | all | carry-out | carry-in) ;;
+  *) echo "lifelong.sh: PART must be data, sweep, five, seeds, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
+esac
 preset=${PRESET:-quick}          # PRESET=smoke tries the script end to end in minutes
 episodes=${EPISODES:-100}
 export OMP_NUM_THREADS=1 SVT_LOG=1
@@ -38,6 +44,15 @@ lb=.venv/bin/libero-bench
 results=benchmarks/results/lifelong
 [[ $preset == smoke ]] && results=$work/results  # a try of the script commits nothing
 mkdir -p "$work/logs"
+carry=${CARRY:-$results/carry}
+if [[ $part == carry-out ]]; then
+  .venv/bin/python -m benchmarks.lifelong_carry out "$work" "$carry"
+  exit
+fi
+if [[ $part == carry-in ]]; then
+  .venv/bin/python -m benchmarks.lifelong_carry in "$carry" "$work"
+  exit
+fi
 
 start_run() {  # name tasks algo seed threads [run options...]; on success its files go to $results
   local name=$1 tasks=$2 algo=$3 seed=$4 threads=$5

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -263,14 +264,15 @@ def test_the_ewc_probe_reads_a_runs_two_checkpoints(
     assert "| ewc | 50000 |" in markdown([row])
 
 
-def test_er_resumed_from_states_without_its_memory_rebuilds_it_and_goes_on_bit_for_bit(
+def test_er_carried_without_its_memory_rebuilds_it_and_goes_on_bit_for_bit(
     tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # A run carried to another machine leaves ER's windows behind (120 MB at 64x64): the memory
-    # updates it records rebuild them from the data, and the run goes on with the same numbers.
-    from libero_bench.algos.er import without_memories
-    from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE
-    from libero_bench.runs.state_files import load_state, save_state
+    # A run carried to another machine (benchmarks/lifelong_carry.py) leaves ER's windows behind
+    # (120 MB at 64x64): the memory updates ER records rebuild them from the data, and the run
+    # goes on with the same numbers and weights as if never interrupted.
+    from benchmarks.lifelong_carry import carry_in, carry_out
+    from libero_bench.runs.saved_policy import EPOCH_STATE
+    from libero_bench.runs.state_files import load_state
 
     whole = _trainer(tiny_dataset, tmp_path / "whole", "er").run()
     second = (
@@ -283,26 +285,49 @@ def test_er_resumed_from_states_without_its_memory_rebuilds_it_and_goes_on_bit_f
             raise KeyboardInterrupt
         return fit_epoch(self, algo, policy, loader, optimiser, label)
 
+    run = tmp_path / "work" / "runs" / "er"
     monkeypatch.setattr(Trainer, "_fit_epoch", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        _trainer(tiny_dataset, tmp_path / "resumed", "er").run()
+        _trainer(tiny_dataset, run, "er").run()
     monkeypatch.setattr(Trainer, "_fit_epoch", fit_epoch)
-    checkpoints = tmp_path / "resumed" / "checkpoints"
-    for path, kind in (
-        (checkpoints / "task_000.safetensors", CHECKPOINT),
-        (checkpoints / "task_001.epoch.safetensors", EPOCH_STATE),
-    ):
-        state = load_state(path, kind=kind)
-        assert len(state["algo"]["fills"]) == 1 and state["algo"]["memories"]
-        save_state(path, {**state, "algo": without_memories(state["algo"])}, kind=kind)
-        assert "memories" not in load_state(path, kind=kind)["algo"]
-    resumed = _trainer(tiny_dataset, tmp_path / "resumed", "er").run()
+    manifest = carry_out(tmp_path / "work", tmp_path / "carry")
+    files = manifest["runs"]["er"]["files"]
+    assert {
+        "checkpoints/task_000.safetensors",
+        "checkpoints/task_001.epoch.safetensors",
+        "results.json",
+    } <= set(files)
+    carried = load_state(
+        tmp_path / "carry" / "er" / "checkpoints" / "task_001.epoch.safetensors", kind=EPOCH_STATE
+    )
+    assert "memories" not in carried["algo"] and len(carried["algo"]["fills"]) == 1
+    shutil.rmtree(run)  # the next machine has the repository and the data made again, nothing else
+    assert carry_in(tmp_path / "carry", tmp_path / "work") == ["er"]
+    resumed = _trainer(tiny_dataset, run, "er").run()
     assert resumed.to_dict() == whole.to_dict()
     a = read_checkpoint(tmp_path / "whole" / "checkpoints" / "task_001.safetensors")
-    b = read_checkpoint(checkpoints / "task_001.safetensors")
-    for part in ("policy",):
-        assert a[part].keys() == b[part].keys() and all(torch.equal(a[part][k], b[part][k]) for k in a[part])
+    b = read_checkpoint(run / "checkpoints" / "task_001.safetensors")
+    assert a["policy"].keys() == b["policy"].keys()
+    assert all(torch.equal(a["policy"][k], b["policy"][k]) for k in a["policy"])
     memories_a, memories_b = a["algo"]["memories"], b["algo"]["memories"]
     assert memories_a.keys() == memories_b.keys() == {0, 1}
     for task in memories_a:
         assert all(torch.equal(memories_a[task][k], memories_b[task][k]) for k in memories_a[task])
+
+
+def test_a_carried_run_refuses_other_data(
+    tiny_dataset: Path, tmp_path: Path, scripted: type[ScriptedEvaluator], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from benchmarks.lifelong_carry import carry_in, carry_out
+
+    data = tmp_path / "work" / "data"
+    shutil.copytree(tiny_dataset, data)
+    run = tmp_path / "work" / "runs" / "seql"
+    _trainer(data, run, "seql", stop_after=1).run()
+    carry_out(tmp_path / "work", tmp_path / "carry")
+    shutil.rmtree(run)
+    table = sorted((data / "data").rglob("*.parquet"))[0]
+    table.write_bytes(table.read_bytes() + b"\0")  # the data made again, but not the same
+    with pytest.raises(SystemExit, match="is not the dataset seql learned from"):
+        carry_in(tmp_path / "carry", tmp_path / "work")
+    assert not run.exists() and not list((tmp_path / "work" / "runs").iterdir())

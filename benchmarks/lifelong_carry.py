@@ -1,0 +1,190 @@
+"""Carry lifelong runs in progress to another machine without their data (issue 59): the runs of
+``benchmarks/lifelong.sh`` outlast a session, and a session's machine may keep nothing but the
+repository.
+
+    python -m benchmarks.lifelong_carry out WORK CARRY   # each unfinished run of WORK/runs -> CARRY/<run>/
+    python -m benchmarks.lifelong_carry in CARRY WORK    # back into WORK/runs once WORK's data is made again
+
+What is carried of a run: its JSON files and log, the newest task checkpoint and the state of the
+task in progress (ER's without its memory's windows, which the run rebuilds from the data:
+``libero_bench.algos.er``), and the rollout shards its final join needs. Not carried: the
+datasets (made again from their seeds, ``benchmarks/lifelong.sh WORK data``), older checkpoints
+and the Rerun recordings of the rollouts carried (a carried run's ``rrd/`` holds those made after).
+``carry.json`` records each file's SHA-256 and a digest of each dataset's frames and tables; ``in``
+refuses a dataset whose digest differs, since the run would go on from other demonstrations.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+FORMAT = "libero-bench-carry/1"
+#: a run's top-level files that are carried when present
+TOP_FILES = ("config.json", "results.json", "timings.jsonl", "run.log", "training_data.json")
+
+
+def sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def data_digest(dataset: Path) -> str:
+    """A digest of a LeRobot dataset's tables and videos (``data/``, ``videos/``): names and bytes."""
+    digest = hashlib.sha256()
+    files = sorted(p for part in ("data", "videos") for p in (dataset / part).rglob("*") if p.is_file())
+    if not files:
+        raise SystemExit(f"{dataset} holds no data/ or videos/ files: is it a dataset?")
+    for path in files:
+        digest.update(f"{path.relative_to(dataset).as_posix()}\0{sha256(path)}\n".encode())
+    return digest.hexdigest()
+
+
+def run_datasets(run: Path) -> list[Path]:
+    """The datasets a run's ``config.json`` names (relative to the run folder)."""
+    config = json.loads((run / "config.json").read_text())
+    names = [config["data"], *config.get("mix", [])]
+    return [(run / n).resolve() if not Path(n).is_absolute() else Path(n) for n in names]
+
+
+def unfinished(work: Path) -> list[Path]:
+    """WORK's run folders whose results are not complete."""
+    runs = []
+    for run in sorted(p for p in (work / "runs").iterdir() if (p / "config.json").is_file()):
+        results = run / "results.json"
+        if not (results.is_file() and json.loads(results.read_text()).get("complete")):
+            runs.append(run)
+    return runs
+
+
+def carried_files(run: Path) -> list[Path]:
+    """What of ``run`` is carried (paths relative to it)."""
+    files = [Path(name) for name in TOP_FILES if (run / name).is_file()]
+    checkpoints = sorted((run / "checkpoints").glob("task_*.safetensors"))
+    tasks = [p for p in checkpoints if not p.name.endswith(".epoch.safetensors")]
+    states = [p for p in checkpoints if p.name.endswith(".epoch.safetensors")]
+    files += [p.relative_to(run) for p in tasks[-1:] + states]
+    shards = run / ".work" / "shards"
+    if shards.is_dir():
+        for shard in sorted(p for p in shards.iterdir() if p.is_dir() and ".tmp-" not in p.name):
+            if (shard / "episode.json").is_file():  # finished rollouts only
+                files += [p.relative_to(run) for p in sorted(shard.rglob("*")) if p.is_file()]
+    return files
+
+
+def _slim(source: Path, target: Path) -> None:
+    """Copy a checkpoint or epoch state, ER's without its memory's windows."""
+    from libero_bench.algos.er import without_memories
+    from libero_bench.runs.saved_policy import CHECKPOINT, EPOCH_STATE
+    from libero_bench.runs.state_files import load_state, save_state
+
+    kind = EPOCH_STATE if source.name.endswith(".epoch.safetensors") else CHECKPOINT
+    state = load_state(source, kind=kind)
+    algo = state.get("algo", {})
+    if isinstance(algo, dict) and "memories" in algo:
+        state = {**state, "algo": without_memories(algo)}
+        save_state(target, state, kind=kind)
+    else:
+        shutil.copy2(source, target)
+
+
+def carry_out(work: Path, carry: Path) -> dict[str, Any]:
+    """Copy what each unfinished run of ``work`` needs into ``carry``; returns the manifest."""
+    if carry.exists():
+        shutil.rmtree(carry)
+    carry.mkdir(parents=True)
+    manifest: dict[str, Any] = {"format": FORMAT, "data": {}, "runs": {}}
+    for run in unfinished(work):
+        files: dict[str, str] = {}
+        for rel in carried_files(run):
+            target = carry / run.name / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            if rel.suffix == ".safetensors":
+                _slim(run / rel, target)
+            else:
+                shutil.copy2(run / rel, target)
+            files[rel.as_posix()] = sha256(target)
+        datasets = {}
+        for dataset in run_datasets(run):
+            key = dataset.name
+            manifest["data"].setdefault(key, data_digest(dataset))
+            datasets[key] = manifest["data"][key]
+        manifest["runs"][run.name] = {"files": files, "datasets": datasets}
+    (carry / "carry.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    return manifest
+
+
+def _stage(source: Path, staging: Path, entry: dict[str, Any]) -> None:
+    """Copy one carried run into ``staging``, checking its files and that its datasets are the ones
+    it learned from."""
+    for rel, digest in entry["files"].items():
+        target = staging / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(source / rel, target)
+        if sha256(target) != digest:
+            raise SystemExit(f"{source / rel} differs from what carry.json records")
+    for dataset in run_datasets(staging):
+        want = entry["datasets"].get(dataset.name)
+        if not dataset.is_dir():
+            raise SystemExit(
+                f"{source.name} needs its dataset {dataset}: make it first (benchmarks/lifelong.sh WORK data)"
+            )
+        if data_digest(dataset) != want:
+            raise SystemExit(
+                f"{dataset} is not the dataset {source.name} learned from (digest {want[:12]}): "
+                "a run carried in must go on from the same demonstrations"
+            )
+
+
+def carry_in(carry: Path, work: Path) -> list[str]:
+    """Put the carried runs back into ``work/runs`` (their datasets must be there, the same);
+    returns the runs put back. A run already in ``work`` is left as it is."""
+    manifest = json.loads((carry / "carry.json").read_text())
+    if manifest.get("format") != FORMAT:
+        raise SystemExit(f"{carry / 'carry.json'} is not a {FORMAT} manifest")
+    placed = []
+    for name, entry in sorted(manifest["runs"].items()):
+        run = work / "runs" / name
+        if run.exists():
+            print(f"{run} is here already: left as it is")
+            continue
+        staging = work / "runs" / f".{name}.carry"
+        shutil.rmtree(staging, ignore_errors=True)
+        try:
+            _stage(carry / name, staging, entry)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)  # nothing half put back
+            raise
+        staging.rename(run)
+        placed.append(name)
+    return placed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="direction", required=True)
+    out = sub.add_parser("out", help="pack WORK's unfinished runs into CARRY (replacing what it held)")
+    out.add_argument("work", type=Path)
+    out.add_argument("carry", type=Path)
+    back = sub.add_parser("in", help="put CARRY's runs back into WORK/runs")
+    back.add_argument("carry", type=Path)
+    back.add_argument("work", type=Path)
+    args = parser.parse_args()
+    if args.direction == "out":
+        manifest = carry_out(args.work, args.carry)
+        size = sum(p.stat().st_size for p in args.carry.rglob("*") if p.is_file())
+        print(f"carried {', '.join(manifest['runs']) or 'no run'} into {args.carry} ({size / 1e6:.1f} MB)")
+    else:
+        placed = carry_in(args.carry, args.work)
+        print(f"put back {', '.join(placed) or 'no run'} into {args.work / 'runs'}")
+
+
+if __name__ == "__main__":
+    main()
