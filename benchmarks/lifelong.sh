@@ -11,14 +11,19 @@
 #          (5e2, 5e3, 5e4: the paper's 5e4 was set for a 10x larger policy) and PackNet's pruned share
 #          with a post-prune fine-tuning as long as a task's training (prune 0.5 and 0.75, 16 epochs);
 #          each sweep run is a run on tasks 0, 1, 2 stopped after two tasks (--stop-after 2)
-#   five   the five algorithms on tasks 0, 1, 2, seed 0; EWC and PackNet go on from the sweep run
-#          kept (the highest held-out AUC, benchmarks/lifelong_report.py --pick; EWC_RUN and
-#          PACKNET_RUN name another sweep run), copied, instead of learning tasks 0 and 1 again
+#   five   the five algorithms on tasks 0, 1, 2, seed 0; EWC and PackNet with the sweep's kept
+#          setting (the highest held-out AUC, benchmarks/lifelong_report.py --pick; EWC_RUN and
+#          PACKNET_RUN name another sweep run), going on from that run's folder when WORK_DIR holds it
+#          instead of learning tasks 0 and 1 again (the report says which)
 #   seeds  SeqL, ER and PackNet again with seed 1
 #   all    every part in turn
 #   carry-out  pack WORK's unfinished runs into CARRY (default benchmarks/results/lifelong/carry, to
 #          commit): a session's machine may keep only the repository (benchmarks/lifelong_carry.py)
 #   carry-in   put them back into WORK after `data` has made the data again (refused if it differs)
+#
+# A session on a machine that kept only the repository: scripts/setup, then `data` (the same bytes
+# from the same seed: carry-in checks), `carry-in`, the part with RUNS naming the runs to go on and
+# new ones, and `carry-out` before the session ends, its folder committed.
 #
 # RUNS="seql-s0 mtl-s0" limits a part to the runs it names (a session too short for a whole part
 # runs some of its runs; the report is made once every run of the five is on record).
