@@ -7,9 +7,11 @@ repository.
 
 What is carried of a run: its JSON files and log, the newest task checkpoint and the state of the
 task in progress (ER's without its memory's windows, which the run rebuilds from the data:
-``libero_bench.algos.er``), and the rollout shards its final join needs. Not carried: the
-datasets (made again from their seeds, ``benchmarks/lifelong.sh WORK data``), older checkpoints
-and the Rerun recordings of the rollouts carried (a carried run's ``rrd/`` holds those made after).
+``libero_bench.algos.er``). Not carried: the datasets (made again from their seeds,
+``benchmarks/lifelong.sh WORK data``), older checkpoints, and the recordings of the rollouts made
+so far (0.8 MB of shard and 0.8 MB of Rerun recording each: 200 MB a run); their outcomes are in
+``results.json``, and the run's joined rollout dataset names them as left behind
+(``RUN/.work/left_behind.json``).
 ``carry.json`` records each file's SHA-256 and a digest of each dataset's frames and tables; ``in``
 refuses a dataset whose digest differs, since the run would go on from other demonstrations.
 """
@@ -70,13 +72,7 @@ def carried_files(run: Path) -> list[Path]:
     checkpoints = sorted((run / "checkpoints").glob("task_*.safetensors"))
     tasks = [p for p in checkpoints if not p.name.endswith(".epoch.safetensors")]
     states = [p for p in checkpoints if p.name.endswith(".epoch.safetensors")]
-    files += [p.relative_to(run) for p in tasks[-1:] + states]
-    shards = run / ".work" / "shards"
-    if shards.is_dir():
-        for shard in sorted(p for p in shards.iterdir() if p.is_dir() and ".tmp-" not in p.name):
-            if (shard / "episode.json").is_file():  # finished rollouts only
-                files += [p.relative_to(run) for p in sorted(shard.rglob("*")) if p.is_file()]
-    return files
+    return files + [p.relative_to(run) for p in tasks[-1:] + states]
 
 
 def _slim(source: Path, target: Path) -> None:
@@ -130,6 +126,12 @@ def _stage(source: Path, staging: Path, entry: dict[str, Any]) -> None:
         shutil.copy2(source / rel, target)
         if sha256(target) != digest:
             raise SystemExit(f"{source / rel} differs from what carry.json records")
+    results = staging / "results.json"
+    recorded = (
+        [r["key"] for r in json.loads(results.read_text()).get("rollouts", [])] if results.is_file() else []
+    )
+    (staging / ".work").mkdir(exist_ok=True)  # the rollouts made so far stayed behind: RunFolder.left_behind
+    (staging / ".work" / "left_behind.json").write_text(json.dumps(sorted(recorded)) + "\n")
     for dataset in run_datasets(staging):
         want = entry["datasets"].get(dataset.name)
         if not dataset.is_dir():

@@ -168,16 +168,25 @@ class RolloutSession:
         """Join every recorded rollout's shard into ``rollouts/`` (one LeRobot dataset)."""
         from libero_bench.rollouts.rollout_dataset import build_rollout_dataset
         from libero_data.errors import RunError
+        from libero_data.runtime.files import read_json
 
+        behind = set(read_json(self.folder.left_behind)) if self.folder.left_behind.is_file() else set()
         keys = sorted(self.records)
-        missing = [k for k in keys if not (self.folder.shard(k) / "episode.json").is_file()]
+        here = [k for k in keys if (self.folder.shard(k) / "episode.json").is_file()]
+        missing = [k for k in keys if k not in here and k not in behind]
         if missing:
             raise RunError(f"{self.root}: rollout {missing[0]} is missing from {self.folder.shards}")
+        run_meta = dict(meta)
+        if len(here) < len(keys):  # a run carried on from another machine without its shards
+            run_meta["rollouts_left_behind"] = [k for k in keys if k not in here]
+        if not here:  # all of them stayed on the machine it came from: nothing to join here
+            self.joined = True
+            return 0
         started = time.perf_counter()
         count = build_rollout_dataset(
-            [self.folder.shard(k) for k in keys],
+            [self.folder.shard(k) for k in here],
             self.folder.rollouts,
-            run_meta=dict(meta),
+            run_meta=run_meta,
             bddl=dict(bddl),
             work_dir=self.folder.work,
         )

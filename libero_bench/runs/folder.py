@@ -16,7 +16,8 @@
                                 the last finished epoch of the task in progress (removed when it ends)
       rollouts/           every evaluation rollout as one LeRobot dataset (+ mcap/ per rollout)
       rrd/<key>.rrd       a Rerun recording per rollout
-      .work/              shards and scratch files while running
+      .work/              shards and scratch files while running (left_behind.json: the
+                          rollouts whose shards stayed on another machine, a run carried on)
 """
 
 from __future__ import annotations
@@ -281,6 +282,12 @@ class RunFolder:
 
     def shard(self, key: str) -> Path:
         return self.shards / key
+
+    @property
+    def left_behind(self) -> Path:
+        """The rollouts whose shards stayed on the machine a run in progress was carried from
+        (their outcomes are in ``results.json``; the joined dataset goes without them)."""
+        return self.work / "left_behind.json"
 
     def rrd_file(self, key: str) -> Path:
         return self.rrd / f"{key}.rrd"

@@ -303,6 +303,8 @@ def test_er_carried_without_its_memory_rebuilds_it_and_goes_on_bit_for_bit(
     assert "memories" not in carried["algo"] and len(carried["algo"]["fills"]) == 1
     shutil.rmtree(run)  # the next machine has the repository and the data made again, nothing else
     assert carry_in(tmp_path / "carry", tmp_path / "work") == ["er"]
+    recorded = sorted(r["key"] for r in json.loads((run / "results.json").read_text())["rollouts"])
+    assert recorded and json.loads((run / ".work" / "left_behind.json").read_text()) == recorded
     resumed = _trainer(tiny_dataset, run, "er").run()
     assert resumed.to_dict() == whole.to_dict()
     a = read_checkpoint(tmp_path / "whole" / "checkpoints" / "task_001.safetensors")
@@ -331,3 +333,28 @@ def test_a_carried_run_refuses_other_data(
     with pytest.raises(SystemExit, match="is not the dataset seql learned from"):
         carry_in(tmp_path / "carry", tmp_path / "work")
     assert not run.exists() and not list((tmp_path / "work" / "runs").iterdir())
+
+
+def test_the_rollout_join_goes_without_the_rollouts_a_carried_run_left_behind(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from libero_bench.rollouts import rollout_dataset
+    from libero_bench.rollouts.session import RolloutSession
+    from libero_data.errors import RunError
+
+    built: dict[str, Any] = {}
+
+    def build(shards: list[Path], out: Path, *, run_meta: dict[str, Any], **_: Any) -> int:
+        built.update(shards=[p.name for p in shards], meta=run_meta)
+        return len(shards)
+
+    monkeypatch.setattr(rollout_dataset, "build_rollout_dataset", build)
+    session = RolloutSession(tmp_path)
+    session.records = {k: {"key": k} for k in ("a", "b", "c")}
+    (session.folder.shard("c")).mkdir(parents=True)
+    (session.folder.shard("c") / "episode.json").write_text("{}")  # made on this machine
+    with pytest.raises(RunError, match="rollout a is missing"):
+        session.join({"run": "r"}, {})
+    session.folder.left_behind.write_text(json.dumps(["a", "b"]))  # carried from another machine
+    assert session.join({"run": "r"}, {}) == 1
+    assert built == {"shards": ["c"], "meta": {"run": "r", "rollouts_left_behind": ["a", "b"]}}
