@@ -376,8 +376,8 @@ def sweep_markdown(sweeps: dict[str, list[dict[str, Any]]]) -> str:
         "\n".join(lines)
         + "\n\nTasks 0 and 1, held-out starts, 95% bootstrap intervals over rollouts. Kept: the highest AUC, "
         "then the lowest NBT, then the smallest setting. Each sweep run is the start of a run on tasks 0, 1, 2 "
-        "stopped after two tasks (`libero-bench run --stop-after 2`); the kept one goes on to task 2 as the "
-        "algorithm's run in the table of the five.\n"
+        "stopped after two tasks (`libero-bench run --stop-after 2`); the kept setting is the algorithm's in the "
+        "table of the five, whose run goes on from the kept sweep run where its folder is at hand.\n"
     )
 
 
