@@ -170,7 +170,10 @@ def test_openpis_loop_against_libero_bench_serve_acts_as_the_standard_protocol_l
     here = _executed(tmp_path / "local")
     for episode, run in enumerate(served):
         assert len(run["actions"]) == steps
-        np.testing.assert_allclose(np.clip(run["actions"], -1, 1), here[episode], atol=1e-5)
+        # The served policy sees one observation a request, the local one a batch of two: their last
+        # bits differ and pass through 8 closed-loop steps (up to 1.1e-5 on a 2-core Intel Xeon, under
+        # 1e-5 on the AMD EPYC this test was written on); the tolerance is ten times that.
+        np.testing.assert_allclose(np.clip(run["actions"], -1, 1), here[episode], atol=1e-4)
 
 
 @pytest.mark.parametrize(
