@@ -51,9 +51,11 @@ def data_digest(dataset: Path) -> str:
 
 def run_datasets(run: Path) -> list[Path]:
     """The datasets a run's ``config.json`` names (relative to the run folder)."""
+    from libero_bench.runs.training_data import resolve
+
     config = json.loads((run / "config.json").read_text())
-    names = [config["data"], *config.get("mix", [])]
-    return [(run / n).resolve() if not Path(n).is_absolute() else Path(n) for n in names]
+    mixed = [d["data"] for d in config.get("mix", {}).get("datasets", [])]  # mixing's config entry
+    return [resolve(run, name).resolve() for name in [config["data"], *mixed]]
 
 
 def unfinished(work: Path) -> list[Path]:

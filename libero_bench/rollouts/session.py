@@ -173,12 +173,12 @@ class RolloutSession:
         behind = set(read_json(self.folder.left_behind)) if self.folder.left_behind.is_file() else set()
         keys = sorted(self.records)
         here = [k for k in keys if (self.folder.shard(k) / "episode.json").is_file()]
-        missing = [k for k in keys if k not in here and k not in behind]
+        missing = sorted(set(keys) - set(here) - behind)
         if missing:
             raise RunError(f"{self.root}: rollout {missing[0]} is missing from {self.folder.shards}")
         run_meta = dict(meta)
         if len(here) < len(keys):  # a run carried on from another machine without its shards
-            run_meta["rollouts_left_behind"] = [k for k in keys if k not in here]
+            run_meta["rollouts_left_behind"] = sorted(set(keys) - set(here))
         if not here:  # all of them stayed on the machine it came from: nothing to join here
             self.joined = True
             return 0
