@@ -25,7 +25,7 @@
 # from the same seed: carry-in checks), `carry-in`, the part with RUNS naming the runs to go on and
 # new ones, and `carry-out` before the session ends, its folder committed.
 #
-# RUNS="seql-s0 mtl-s0" limits a part to the runs it names (a session too short for a whole part
+# RUNS="seql-s0 mtl-s0" limits a part to the runs it names, started in that order (a session too short for a whole part
 # runs some of its runs; the report is made once every run of the five is on record).
 #
 # Runs go two at a time, one torch thread each (benchmarks/quick.sh says why), or alone on two threads
@@ -75,8 +75,14 @@ chosen() {  # name -> is it among $RUNS (every run when RUNS is unset)
 }
 
 run_all() {  # entries "name|tasks|algo|seed|options", two at a time (the last one alone on two threads)
-  local pids=() failed=0 entry name tasks algo seed options threads picked=()
-  for entry in "$@"; do chosen "${entry%%|*}" && picked+=("$entry"); done
+  local pids=() failed=0 entry name tasks algo seed options threads picked=() wanted
+  if [[ -z ${RUNS:-} ]]; then
+    picked=("$@")
+  else  # in the order RUNS names them (the longest first shortens a session's queue)
+    for wanted in $RUNS; do
+      for entry in "$@"; do [[ ${entry%%|*} == "$wanted" ]] && picked+=("$entry"); done
+    done
+  fi
   local left=${#picked[@]}
   for entry in "${picked[@]}"; do
     while (($(jobs -rp | wc -l) >= 2)); do wait -n || true; done

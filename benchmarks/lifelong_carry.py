@@ -7,13 +7,19 @@ repository.
 
 What is carried of a run: its JSON files and log, the newest task checkpoint and the state of the
 task in progress (ER's without its memory's windows, which the run rebuilds from the data:
-``libero_bench.algos.er``). Not carried: the datasets (made again from their seeds,
-``benchmarks/lifelong.sh WORK data``), older checkpoints, and the recordings of the rollouts made
+``libero_bench.algos.er``). Not carried: older checkpoints, and the recordings of the rollouts made
 so far (0.8 MB of shard and 0.8 MB of Rerun recording each: 200 MB a run); their outcomes are in
 ``results.json``, and the run's joined rollout dataset names them as left behind
 (``RUN/.work/left_behind.json``).
-``carry.json`` records each file's SHA-256 and a digest of each dataset's frames and tables; ``in``
-refuses a dataset whose digest differs, since the run would go on from other demonstrations.
+
+The datasets the runs learn from are carried too (``CARRY/datasets/<name>/``: card, ``meta/``,
+``data/``, ``videos/``; not the MCAP logs), because making them again does not give the same bytes
+on another machine: the 300 episodes of libero_object 0, 1, 2 made on an Intel Xeon and again on an
+AMD EPYC, same command, seed and code, had other digests (each machine made the same bytes twice).
+Git stores a file's bytes once, so the dataset costs the history its size (~100 MB at 64x64) once,
+not at each carry. ``in`` puts a carried dataset where its runs look for it when nothing is there;
+``carry.json`` records each file's SHA-256 and a digest of each dataset's frames and tables, and
+``in`` refuses a dataset whose digest differs, since the run would go on from other demonstrations.
 """
 
 from __future__ import annotations
@@ -28,6 +34,8 @@ from typing import Any
 FORMAT = "libero-bench-carry/1"
 #: a run's top-level files that are carried when present
 TOP_FILES = ("config.json", "results.json", "timings.jsonl", "run.log", "training_data.json")
+#: what of a dataset is carried: what training reads (its MCAP logs are not)
+DATASET_PARTS = ("README.md", "meta", "data", "videos")
 
 
 def sha256(path: Path) -> str:
@@ -56,6 +64,45 @@ def run_datasets(run: Path) -> list[Path]:
     config = json.loads((run / "config.json").read_text())
     mixed = [d["data"] for d in config.get("mix", {}).get("datasets", [])]  # mixing's config entry
     return [resolve(run, name).resolve() for name in [config["data"], *mixed]]
+
+
+def dataset_files(dataset: Path) -> list[Path]:
+    """The files of ``dataset`` that are carried (relative to it)."""
+    files = []
+    for part in DATASET_PARTS:
+        path = dataset / part
+        if path.is_file():
+            files.append(Path(part))
+        elif path.is_dir():
+            files.extend(p.relative_to(dataset) for p in sorted(path.rglob("*")) if p.is_file())
+    return files
+
+
+def pack_dataset(dataset: Path, target: Path) -> dict[str, str]:
+    """Copy the carried files of ``dataset`` into ``target``; returns their SHA-256 by path."""
+    files: dict[str, str] = {}
+    for rel in dataset_files(dataset):
+        (target / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(dataset / rel, target / rel)
+        files[rel.as_posix()] = sha256(target / rel)
+    return files
+
+
+def unpack_dataset(source: Path, files: dict[str, str], dataset: Path) -> None:
+    """Put a carried dataset at ``dataset`` (which must not exist), checking every file; nothing is
+    left there when a file differs from what carry.json records."""
+    staging = dataset.with_name(f".{dataset.name}.carry")
+    shutil.rmtree(staging, ignore_errors=True)
+    try:
+        for rel, digest in files.items():
+            (staging / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / rel, staging / rel)
+            if sha256(staging / rel) != digest:
+                raise SystemExit(f"{source / rel} differs from what carry.json records")
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    staging.rename(dataset)
 
 
 def unfinished(work: Path) -> list[Path]:
@@ -98,7 +145,7 @@ def carry_out(work: Path, carry: Path) -> dict[str, Any]:
     if carry.exists():
         shutil.rmtree(carry)
     carry.mkdir(parents=True)
-    manifest: dict[str, Any] = {"format": FORMAT, "data": {}, "runs": {}}
+    manifest: dict[str, Any] = {"format": FORMAT, "data": {}, "dataset_files": {}, "runs": {}}
     for run in unfinished(work):
         files: dict[str, str] = {}
         for rel in carried_files(run):
@@ -112,16 +159,19 @@ def carry_out(work: Path, carry: Path) -> dict[str, Any]:
         datasets = {}
         for dataset in run_datasets(run):
             key = dataset.name
-            manifest["data"].setdefault(key, data_digest(dataset))
+            if key not in manifest["data"]:
+                manifest["data"][key] = data_digest(dataset)
+                manifest["dataset_files"][key] = pack_dataset(dataset, carry / "datasets" / key)
             datasets[key] = manifest["data"][key]
         manifest["runs"][run.name] = {"files": files, "datasets": datasets}
     (carry / "carry.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest
 
 
-def _stage(source: Path, staging: Path, entry: dict[str, Any]) -> None:
+def _stage(source: Path, staging: Path, entry: dict[str, Any], carried: dict[str, dict[str, str]]) -> None:
     """Copy one carried run into ``staging``, checking its files and that its datasets are the ones
-    it learned from."""
+    it learned from; a dataset that is not where the run looks for it is put there from
+    ``carried`` (name -> its files' SHA-256) when the carry holds it."""
     for rel, digest in entry["files"].items():
         target = staging / rel
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -136,20 +186,26 @@ def _stage(source: Path, staging: Path, entry: dict[str, Any]) -> None:
     (staging / ".work" / "left_behind.json").write_text(json.dumps(sorted(recorded)) + "\n")
     for dataset in run_datasets(staging):
         want = entry["datasets"].get(dataset.name)
+        if not dataset.exists() and dataset.name in carried:
+            unpack_dataset(source.parent / "datasets" / dataset.name, carried[dataset.name], dataset)
         if not dataset.is_dir():
             raise SystemExit(
                 f"{source.name} needs its dataset {dataset}: make it first (benchmarks/lifelong.sh WORK data)"
             )
         if data_digest(dataset) != want:
+            hint = (
+                "; move it aside and carry-in puts the carried copy there" if dataset.name in carried else ""
+            )
             raise SystemExit(
                 f"{dataset} is not the dataset {source.name} learned from (digest {want[:12]}): "
-                "a run carried in must go on from the same demonstrations"
+                f"a run carried in must go on from the same demonstrations{hint}"
             )
 
 
 def carry_in(carry: Path, work: Path) -> list[str]:
-    """Put the carried runs back into ``work/runs`` (their datasets must be there, the same);
-    returns the runs put back. A run already in ``work`` is left as it is."""
+    """Put the carried runs back into ``work/runs``, and their datasets where they look for them
+    when nothing is there (a dataset that is there must be the same); returns the runs put back.
+    A run already in ``work`` is left as it is."""
     manifest = json.loads((carry / "carry.json").read_text())
     if manifest.get("format") != FORMAT:
         raise SystemExit(f"{carry / 'carry.json'} is not a {FORMAT} manifest")
@@ -162,7 +218,7 @@ def carry_in(carry: Path, work: Path) -> list[str]:
         staging = work / "runs" / f".{name}.carry"
         shutil.rmtree(staging, ignore_errors=True)
         try:
-            _stage(carry / name, staging, entry)
+            _stage(carry / name, staging, entry, manifest.get("dataset_files", {}))
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)  # nothing half put back
             raise

@@ -335,6 +335,45 @@ def test_a_carried_run_refuses_other_data(tiny_dataset: Path, tmp_path: Path) ->
     assert not list((work / "runs").iterdir())  # nothing half put back
 
 
+def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
+    tiny_dataset: Path, tmp_path: Path
+) -> None:
+    # A dataset made again on another machine may have other bytes (its videos), so the carry holds
+    # the dataset too, and carry-in puts it where the run looks for it, checked file by file.
+    from benchmarks.lifelong_carry import carry_in, carry_out, data_digest, dataset_files
+
+    work = tmp_path / "work"
+    shutil.copytree(tiny_dataset, work / "data")
+    (work / "data" / "mcap").mkdir(exist_ok=True)
+    (work / "data" / "mcap" / "episode_000000.mcap").write_bytes(b"log")  # not needed to train
+    run = work / "runs" / "seql"
+    run.mkdir(parents=True)
+    (run / "config.json").write_text(json.dumps({"data": "../../data"}))
+    (run / "results.json").write_text(json.dumps({"complete": False, "rollouts": []}))
+    digest = data_digest(work / "data")
+    manifest = carry_out(work, tmp_path / "carry")
+    files = manifest["dataset_files"]["data"]
+    assert files and not any(name.startswith("mcap/") for name in files)
+    assert {"data", "videos", "meta"} <= {name.split("/")[0] for name in files}
+
+    tampered = tmp_path / "carry" / "datasets" / "data" / sorted(files)[-1]
+    original = tampered.read_bytes()
+    shutil.rmtree(work)  # the next machine: the repository only
+    tampered.write_bytes(original + b"\0")
+    with pytest.raises(SystemExit, match=r"differs from what carry\.json records"):
+        carry_in(tmp_path / "carry", work)
+    assert [p.name for p in work.iterdir()] == ["runs"] and not list(
+        (work / "runs").iterdir()
+    )  # nothing half put back
+
+    tampered.write_bytes(original)
+    assert carry_in(tmp_path / "carry", work) == ["seql"]
+    assert data_digest(work / "data") == digest
+    assert sorted(p.as_posix() for p in dataset_files(work / "data")) == sorted(files)
+    for name in files:
+        assert (work / "data" / name).read_bytes() == (tiny_dataset / name).read_bytes()
+
+
 def test_the_rollout_join_goes_without_the_rollouts_a_carried_run_left_behind(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
