@@ -17,13 +17,15 @@
 #          instead of learning tasks 0 and 1 again (the report says which)
 #   seeds  SeqL, ER and PackNet again with seed 1
 #   all    every part in turn
-#   carry-out  pack WORK's unfinished runs into CARRY (default benchmarks/results/lifelong/carry, to
-#          commit): a session's machine may keep only the repository (benchmarks/lifelong_carry.py)
-#   carry-in   put them back into WORK after `data` has made the data again (refused if it differs)
+#   carry-out  pack WORK's unfinished runs and their dataset (without its MCAP logs) into CARRY
+#          (default benchmarks/results/lifelong/carry, to commit): a session's machine may keep only
+#          the repository (benchmarks/lifelong_carry.py)
+#   carry-in   put them back into WORK, the dataset too where WORK has none (a dataset WORK has must
+#          be the same bytes: one made again on another machine was not)
 #
-# A session on a machine that kept only the repository: scripts/setup, then `data` (the same bytes
-# from the same seed: carry-in checks), `carry-in`, the part with RUNS naming the runs to go on and
-# new ones, and `carry-out` before the session ends, its folder committed.
+# A session on a machine that kept only the repository: scripts/setup, `carry-in`, the part with
+# RUNS naming the runs to go on and new ones, and `carry-out` before the session ends, its folder
+# committed.
 #
 # RUNS="seql-s0 mtl-s0" limits a part to the runs it names, started in that order (a session too short for a whole part
 # runs some of its runs; the report is made once every run of the five is on record).

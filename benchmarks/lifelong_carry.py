@@ -3,7 +3,8 @@
 repository.
 
     python -m benchmarks.lifelong_carry out WORK CARRY   # each unfinished run of WORK/runs -> CARRY/<run>/
-    python -m benchmarks.lifelong_carry in CARRY WORK    # back into WORK/runs once WORK's data is made again
+    python -m benchmarks.lifelong_carry in CARRY WORK    # back into WORK/runs (and the data, where WORK has none)
+    python -m benchmarks.lifelong_carry diff CARRY DATA  # a dataset made again here against the carried one
 
 What is carried of a run: its JSON files and log, the newest task checkpoint and the state of the
 task in progress (ER's without its memory's windows, which the run rebuilds from the data:
@@ -227,6 +228,75 @@ def carry_in(carry: Path, work: Path) -> list[str]:
     return placed
 
 
+def _frames(path: Path) -> Any:
+    """A video's frames as one uint8 array (frames, height, width, 3)."""
+    import av
+    import numpy as np
+
+    with av.open(str(path)) as container:
+        return np.stack([f.to_ndarray(format="rgb24") for f in container.decode(video=0)])
+
+
+def _table_difference(a: Path, b: Path) -> str:
+    import numpy as np
+    import pyarrow.parquet as pq
+
+    ta, tb = pq.read_table(a), pq.read_table(b)
+    if ta.schema != tb.schema or ta.num_rows != tb.num_rows:
+        return f"other columns or rows ({ta.num_rows} and {tb.num_rows} rows)"
+    apart = []
+    for name in ta.column_names:
+        x = np.asarray(ta.column(name).to_pylist(), dtype=np.float64)
+        y = np.asarray(tb.column(name).to_pylist(), dtype=np.float64)
+        if x.shape != y.shape:
+            apart.append(f"{name} (other shape)")
+        elif not np.array_equal(x, y):
+            apart.append(f"{name} (max {np.max(np.abs(x - y)):.3g})")
+    return ", ".join(apart) or "the same values (other bytes)"
+
+
+def _video_difference(a: Path, b: Path) -> str:
+    import numpy as np
+
+    fa, fb = _frames(a), _frames(b)
+    if fa.shape != fb.shape:
+        return f"other frames ({fa.shape} and {fb.shape})"
+    apart = np.abs(fa.astype(np.int16) - fb.astype(np.int16))
+    frames = int(np.count_nonzero(apart.reshape(len(apart), -1).max(axis=1)))
+    return (
+        f"{frames}/{len(fa)} frames differ, max {int(apart.max())} levels, "
+        f"{np.count_nonzero(apart) / apart.size:.2%} of values"
+    )
+
+
+def diff(carry: Path, dataset: Path) -> list[str]:
+    """Compare the files of ``dataset`` (made again, on another machine: a few episodes are enough,
+    as each episode is its own file) with the carried dataset of the same name, file by file: which
+    are the same, and how the others differ (table columns; decoded video frames)."""
+    manifest = json.loads((carry / "carry.json").read_text())
+    files = manifest.get("dataset_files", {})
+    if len(files) != 1 and dataset.name not in files:
+        raise SystemExit(f"{carry} carries {', '.join(files) or 'no dataset'}, not {dataset.name}")
+    name = dataset.name if dataset.name in files else next(iter(files))
+    recorded, source = files[name], carry / "datasets" / name
+    lines = []
+    for rel in dataset_files(dataset):
+        key = rel.as_posix()
+        if key.startswith("meta/") or key == "README.md" or key not in recorded:
+            continue  # the card and meta describe the whole dataset: other by construction
+        if sha256(dataset / rel) == recorded[key]:
+            lines.append(f"{key}: the same")
+        elif rel.suffix == ".parquet":
+            lines.append(f"{key}: {_table_difference(source / rel, dataset / rel)}")
+        elif rel.suffix == ".mp4":
+            lines.append(f"{key}: {_video_difference(source / rel, dataset / rel)}")
+        else:
+            lines.append(f"{key}: other bytes")
+    if not lines:
+        raise SystemExit(f"{dataset} has no table or video the carry records")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="direction", required=True)
@@ -236,8 +306,15 @@ def main() -> None:
     back = sub.add_parser("in", help="put CARRY's runs back into WORK/runs")
     back.add_argument("carry", type=Path)
     back.add_argument("work", type=Path)
+    compare = sub.add_parser(
+        "diff", help="compare a dataset made again (a few episodes) with the carried one, file by file"
+    )
+    compare.add_argument("carry", type=Path)
+    compare.add_argument("dataset", type=Path)
     args = parser.parse_args()
-    if args.direction == "out":
+    if args.direction == "diff":
+        print("\n".join(diff(args.carry, args.dataset)))
+    elif args.direction == "out":
         manifest = carry_out(args.work, args.carry)
         size = sum(p.stat().st_size for p in args.carry.rglob("*") if p.is_file())
         print(f"carried {', '.join(manifest['runs']) or 'no run'} into {args.carry} ({size / 1e6:.1f} MB)")

@@ -373,6 +373,29 @@ def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     for name in files:
         assert (work / "data" / name).read_bytes() == (tiny_dataset / name).read_bytes()
 
+    # the same dataset made again elsewhere is compared with the carried one file by file
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from benchmarks.lifelong_carry import _video_difference, diff
+
+    lines = diff(tmp_path / "carry", work / "data")
+    assert lines and all(line.endswith(": the same") for line in lines)
+    table_path = sorted((work / "data" / "data").rglob("*.parquet"))[0]
+    table = pq.read_table(table_path)
+    moved = pa.array(
+        [[v + 1e-3 for v in row] for row in table.column("action").to_pylist()], pa.list_(pa.float32())
+    )
+    pq.write_table(table.set_column(table.column_names.index("action"), "action", moved), table_path)
+    line = next(
+        x
+        for x in diff(tmp_path / "carry", work / "data")
+        if x.startswith(str(table_path.relative_to(work / "data")))
+    )
+    assert "action (max 0.001)" in line and "observation.state" not in line
+    video = sorted((work / "data" / "videos").rglob("*.mp4"))[0]
+    assert _video_difference(video, video).startswith("0/")
+
 
 def test_the_rollout_join_goes_without_the_rollouts_a_carried_run_left_behind(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
