@@ -388,3 +388,16 @@ def start_overlap(
             "stored_eval_starts_trained_on": sorted(stored & evaluated),
         }
     return out
+
+
+def machines_worked(earlier: list[dict[str, Any]], now: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """A resumed run's ``runtime.machines``: those that worked on it before, then this one unless
+    it is listed. One machine is another when its numeric key (the simulation's bits) or its CPU
+    differs: machines of one key replay the same rollouts, but torch's CPU kernels train a little
+    differently on another make of processor."""
+
+    def key(machine: dict[str, Any]) -> tuple[Any, ...]:
+        return machine.get("numeric_key"), machine.get("cpu"), machine.get("cpu_vendor")
+
+    seen = {key(m) for m in earlier}
+    return earlier + [m for m in now if key(m) not in seen]

@@ -60,6 +60,7 @@ from libero_bench.train.plan import (
     RunRequest,
     check_device,
     check_out_folder,
+    machines_worked,
     plan_run,
 )
 from libero_bench.train.presets import TrainPreset
@@ -134,11 +135,9 @@ class Trainer:
                     changed=changed,
                 )
             runtime = dict(config["runtime"])
-            earlier = saved.get("runtime", {}).get("machines", [])
-            keys = {m.get("numeric_key") for m in earlier}
-            runtime["machines"] = earlier + [
-                m for m in runtime["machines"] if m.get("numeric_key") not in keys
-            ]
+            runtime["machines"] = machines_worked(
+                saved.get("runtime", {}).get("machines", []), runtime["machines"]
+            )
             write_json(self.folder.config, {**saved, "runtime": runtime})
         else:
             check_out_folder(root)

@@ -441,3 +441,17 @@ def test_bad_report_and_replay_input(tmp_path: Path, bench_run: Path) -> None:
         assert result.returncode == 2, (args, result.stderr)
         assert message in result.stderr, (args, result.stderr)
         assert "Traceback" not in result.stderr
+
+
+def test_a_run_resumed_on_another_make_of_cpu_lists_both_machines() -> None:
+    # Machines of one numeric key replay the same rollouts, but torch trains a little differently
+    # on another processor: a run carried from an Intel to an AMD machine says it worked on both.
+    from libero_bench.train.plan import machines_worked
+
+    intel = {"numeric_key": "6821d49cc09e", "cpu": "Intel(R) Xeon(R) Processor", "cpu_vendor": "GenuineIntel"}
+    amd = {"numeric_key": "6821d49cc09e", "cpu": "AMD EPYC", "cpu_vendor": "AuthenticAMD"}
+    assert machines_worked([intel], [dict(intel)]) == [intel]
+    assert machines_worked([intel], [amd]) == [intel, amd]
+    assert machines_worked([intel, amd], [dict(intel)]) == [intel, amd]
+    other_key = {**intel, "numeric_key": "0123456789ab"}
+    assert machines_worked([intel], [other_key]) == [intel, other_key]
