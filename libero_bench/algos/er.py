@@ -224,14 +224,17 @@ class ER(Algo):
             self.memories = {int(k): dict(m) for k, m in state["memories"].items()}
         elif self.fills:  # saved without its windows: rebuilt from the data when first needed
             self._memories, self._rebuild = {}, True
-        else:
-            raise ValueError("ER state holds neither its memory nor the updates that rebuild it")
+        else:  # carried before any memory update (its first task): the memory is empty
+            self.memories = {}
 
 
 def without_memories(state: Mapping[str, Any]) -> dict[str, Any]:
     """An ER state (``ER.state_dict()``) without the memory's windows: the updates it records
-    rebuild them from the data (:attr:`ER.task_data`)."""
-    if not state.get("fills") and state.get("memories"):
+    rebuild them from the data (:attr:`ER.task_data`). An empty memory (a run carried in its first
+    task) has nothing to leave behind and is kept as it is."""
+    if not state.get("memories"):
+        return dict(state)
+    if not state.get("fills"):
         raise ValueError(
             "this ER state records no memory updates (an older run): its memory cannot be rebuilt"
         )

@@ -75,6 +75,24 @@ def test_state_round_trip_replays_the_same_windows() -> None:
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
+def test_a_state_carried_in_the_first_task_loads_without_its_empty_memory() -> None:
+    # lifelong_carry leaves ER's windows behind; in the first task there are none, and the state
+    # must still load (it failed: "neither its memory nor the updates that rebuild it")
+    from libero_bench.algos.er import without_memories
+
+    policy = make_policy("resnet_t", "smoke", image_size=32)
+    algo = ER(ERConfig(memory_size=6, seed=1))
+    algo.start_task(0, policy)
+    state = algo.state_dict()
+    stripped = {k: v for k, v in state.items() if k != "memories"}  # as carried before the fix
+    for carried in (without_memories(state), stripped):
+        other = ER(ERConfig(memory_size=6, seed=1))
+        other.load_state_dict(carried)
+        assert other.memories == {} and other.memory_count() == 0
+    algo.end_task(0, lambda: _task_batches(0))  # with windows, they are left behind and rebuilt
+    assert "memories" not in without_memories(algo.state_dict())
+
+
 def test_config_validation() -> None:
     with pytest.raises(ValueError, match=r"ERConfig\.memory_size"):
         ERConfig(memory_size=0)
