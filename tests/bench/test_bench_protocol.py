@@ -346,6 +346,8 @@ def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     shutil.copytree(tiny_dataset, work / "data")
     (work / "data" / "mcap").mkdir(exist_ok=True)
     (work / "data" / "mcap" / "episode_000000.mcap").write_bytes(b"log")  # not needed to train
+    card = work / "data" / "README.md"
+    card.write_text(card.read_text() + f"\n- **Made by:** `libero-data generate ... --out {work / 'data'}`\n")
     run = work / "runs" / "seql"
     run.mkdir(parents=True)
     (run / "config.json").write_text(json.dumps({"data": "../../data"}))
@@ -354,6 +356,8 @@ def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     manifest = carry_out(work, tmp_path / "carry")
     files = manifest["dataset_files"]["data"]
     assert files and not any(name.startswith("mcap/") for name in files)
+    carried_card = (tmp_path / "carry" / "datasets" / "data" / "README.md").read_text()
+    assert str(tmp_path) not in carried_card and "--out data`" in carried_card  # no path of this machine
     assert {"data", "videos", "meta"} <= {name.split("/")[0] for name in files}
 
     tampered = tmp_path / "carry" / "datasets" / "data" / sorted(files)[-1]
@@ -371,7 +375,8 @@ def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     assert data_digest(work / "data") == digest
     assert sorted(p.as_posix() for p in dataset_files(work / "data")) == sorted(files)
     for name in files:
-        assert (work / "data" / name).read_bytes() == (tiny_dataset / name).read_bytes()
+        if name != "README.md":
+            assert (work / "data" / name).read_bytes() == (tiny_dataset / name).read_bytes()
 
     # the same dataset made again elsewhere is compared with the carried one file by file
     import pyarrow as pa
