@@ -84,10 +84,11 @@ def pack_dataset(dataset: Path, target: Path) -> dict[str, str]:
     files: dict[str, str] = {}
     for rel in dataset_files(dataset):
         (target / rel).parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(dataset / rel, target / rel)
         if rel == Path("README.md"):  # the card names the folder it was made in: name it by itself
-            card = (target / rel).read_text()
+            card = (dataset / rel).read_text()
             (target / rel).write_text(card.replace(str(dataset.resolve()), dataset.name))
+        else:
+            shutil.copy2(dataset / rel, target / rel)
         files[rel.as_posix()] = sha256(target / rel)
     return files
 

@@ -358,6 +358,7 @@ def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     assert files and not any(name.startswith("mcap/") for name in files)
     carried_card = (tmp_path / "carry" / "datasets" / "data" / "README.md").read_text()
     assert str(tmp_path) not in carried_card and "--out data`" in carried_card  # no path of this machine
+    assert carried_card == card.read_text().replace(str(work / "data"), "data")
     assert {"data", "videos", "meta"} <= {name.split("/")[0] for name in files}
 
     tampered = tmp_path / "carry" / "datasets" / "data" / sorted(files)[-1]
@@ -374,9 +375,9 @@ def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     assert carry_in(tmp_path / "carry", work) == ["seql"]
     assert data_digest(work / "data") == digest
     assert sorted(p.as_posix() for p in dataset_files(work / "data")) == sorted(files)
-    for name in files:
-        if name != "README.md":
-            assert (work / "data" / name).read_bytes() == (tiny_dataset / name).read_bytes()
+    assert (work / "data" / "README.md").read_text() == carried_card  # its folder named by itself
+    for name in set(files) - {"README.md"}:  # the rest as made
+        assert (work / "data" / name).read_bytes() == (tiny_dataset / name).read_bytes()
 
     # the same dataset made again elsewhere is compared with the carried one file by file
     import pyarrow as pa
