@@ -381,6 +381,23 @@ def sweep_markdown(sweeps: dict[str, list[dict[str, Any]]]) -> str:
     )
 
 
+def findings_document(runs: Path, report: dict[str, Any], record: dict[str, Any]) -> str:
+    """``findings.md``: the table of the five beside the paper's row, each finding's verdict with
+    its comparisons, and what the runs cost (``report``: the report's summary of the runs;
+    ``record``: :func:`findings_record`)."""
+    return (
+        "# The five lifelong algorithms on libero_object 0, 1, 2 (quick preset)\n\n"
+        + table_markdown(report)
+        + "\nIntervals: 95% bootstrap over rollouts (and over seeds where there are two). Paper: LIBERO, Table VI, "
+        "ResNet-T, LIBERO-Object, three seeds (its MTL row is a success rate).\n\n## The paper's findings\n"
+        + findings_markdown(record["findings"])
+        + "\n## What the runs cost\n\nTwo runs at a time on two cores, one torch thread each (`timings.jsonl` of each run).\n\n"
+        + cost_markdown(cost_rows(runs))
+        + "\n"
+        + origins_markdown(runs)
+    )
+
+
 def main() -> None:
     from libero_bench.analysis.compare import comparison_markdown
     from libero_bench.analysis.report import write_report
@@ -413,18 +430,7 @@ def main() -> None:
     for name, result in record["comparisons"].items():
         write_text(args.out / "compare" / f"{name}.md", comparison_markdown(result))
     write_json(args.out / "findings.json", record)
-    entries = record["findings"]
-    text = (
-        "# The five lifelong algorithms on libero_object 0, 1, 2 (quick preset)\n\n"
-        + table_markdown(report)
-        + "\nIntervals: 95% bootstrap over rollouts (and over seeds where there are two). Paper: LIBERO, Table VI, "
-        "ResNet-T, LIBERO-Object, three seeds (its MTL row is a success rate).\n\n## The paper's findings\n"
-        + findings_markdown(entries)
-        + "\n## What the runs cost\n\nTwo runs at a time on two cores, one torch thread each (`timings.jsonl` of each run).\n\n"
-        + cost_markdown(cost_rows(args.runs))
-        + "\n"
-        + origins_markdown(args.runs)
-    )
+    text = findings_document(args.runs, report, record)
     write_text(args.out / "findings.md", text)
     print(text)
 
