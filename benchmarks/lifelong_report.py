@@ -260,20 +260,24 @@ def findings_record(runs: Path, out: Path) -> dict[str, Any]:
 
 
 def cost_rows(runs: Path) -> list[dict[str, Any]]:
-    """What each run cost, from its ``timings.jsonl``: epochs trained, seconds per epoch (mean),
-    hours of training and of evaluation rollouts (two runs shared the two cores, one torch thread
-    each)."""
+    """What each run cost, from its ``timings.jsonl``: epochs trained (post-prune ones included),
+    loss passes (a task's loss before its first epoch, timed as its "epoch 0"), seconds per epoch
+    (mean), hours of training (loss passes included) and of evaluation rollouts (two runs shared
+    the two cores, one torch thread each)."""
     rows = []
     for folder in sorted(p for p in runs.iterdir() if (p / "timings.jsonl").is_file()):
         lines = [json.loads(x) for x in (folder / "timings.jsonl").read_text().splitlines() if x.strip()]
-        epochs = [x["seconds"] for x in lines if x.get("what") == "epoch"]
+        timed = [x for x in lines if x.get("what") == "epoch"]
+        passes = [x["seconds"] for x in timed if " epoch 0/" in x.get("label", "")]
+        epochs = [x["seconds"] for x in timed if " epoch 0/" not in x.get("label", "")]
         evaluate = sum(x["seconds"] for x in lines if x.get("what") == "evaluate")
         rows.append(
             {
                 "run": folder.name,
                 "epochs": len(epochs),
+                "loss_passes": len(passes),
                 "seconds_per_epoch": sum(epochs) / len(epochs) if epochs else None,
-                "training_hours": sum(epochs) / 3600,
+                "training_hours": (sum(epochs) + sum(passes)) / 3600,
                 "evaluation_hours": evaluate / 3600,
             }
         )
@@ -282,13 +286,14 @@ def cost_rows(runs: Path) -> list[dict[str, Any]]:
 
 def cost_markdown(rows: list[dict[str, Any]]) -> str:
     lines = [
-        "| run | epochs | s per epoch | training h | evaluation h |",
-        "|---|---:|---:|---:|---:|",
+        "| run | epochs | loss passes | s per epoch | training h | evaluation h |",
+        "|---|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         per = "–" if r["seconds_per_epoch"] is None else f"{r['seconds_per_epoch']:.0f}"
         lines.append(
-            f"| {r['run']} | {r['epochs']} | {per} | {r['training_hours']:.2f} | {r['evaluation_hours']:.2f} |"
+            f"| {r['run']} | {r['epochs']} | {r['loss_passes']} | {per} | {r['training_hours']:.2f} | "
+            f"{r['evaluation_hours']:.2f} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -111,3 +111,21 @@ def test_the_report_says_whether_a_run_went_on_from_its_sweep_run(tmp_path: Path
     text = origins_markdown(tmp_path)
     assert "EWC (`ewc-s0`) went on from the sweep run kept (`sweep-ewc-500`)" in text
     assert "PackNet (`packnet-s0`) learned tasks 0 and 1 again itself" in text
+
+
+def test_the_cost_table_counts_loss_passes_apart_from_epochs(tmp_path: Path) -> None:
+    from benchmarks.lifelong_report import cost_rows
+
+    lines = [
+        '{"what": "epoch", "label": "task_a: epoch 0/2", "seconds": 10.0}',  # the loss pass
+        '{"what": "epoch", "label": "task_a: epoch 1/2", "seconds": 100.0}',
+        '{"what": "epoch", "label": "task_a: epoch 2/2", "seconds": 110.0}',
+        '{"what": "epoch", "label": "task_a: post-task epoch 1/2", "seconds": 90.0}',
+        '{"what": "evaluate", "label": "task_a", "seconds": 360.0}',
+    ]
+    (tmp_path / "packnet-s0").mkdir()
+    (tmp_path / "packnet-s0" / "timings.jsonl").write_text("\n".join(lines) + "\n")
+    (row,) = cost_rows(tmp_path)
+    assert (row["epochs"], row["loss_passes"]) == (3, 1)
+    assert row["seconds_per_epoch"] == 100.0
+    assert row["training_hours"] == 310.0 / 3600 and row["evaluation_hours"] == 0.1
