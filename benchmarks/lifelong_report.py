@@ -249,6 +249,11 @@ def second_seeds(runs: Path) -> list[Path]:
     return sorted(p for p in runs.iterdir() if p.name.endswith("-s1") and (p / "results.json").is_file())
 
 
+def report_runs(runs: Path) -> list[Path]:
+    """The run folders the report of the five covers: each algorithm's seed-0 run, then any other seed's."""
+    return [*seed0_runs(runs).values(), *second_seeds(runs)]
+
+
 def findings_record(runs: Path, out: Path) -> dict[str, Any]:
     """What ``findings.json`` holds: the paper's row, each finding tested, and the comparisons
     behind them (runs named relative to ``out``)."""
@@ -429,8 +434,7 @@ def main() -> None:
         write_text(args.out / "sweep.md", sweep_markdown(sweeps))
         print(sweep_markdown(sweeps))
         return
-    main_runs = seed0_runs(args.runs)
-    report = write_report([*main_runs.values(), *second_seeds(args.runs)], args.out / "report")
+    report = write_report(report_runs(args.runs), args.out / "report")
     record = findings_record(args.runs, args.out)
     for name, result in record["comparisons"].items():
         write_text(args.out / "compare" / f"{name}.md", comparison_markdown(result))
