@@ -110,15 +110,23 @@ def lift(ctx: Context, height: float, mat: np.ndarray | None = None, speed: floa
     return (yield from ctx.motion.move(pos, mat, speed=speed, tol=0.015, max_steps=60))
 
 
-def go_to_pose(ctx: Context, pos: np.ndarray, mat: np.ndarray, clearance: float = 0.08) -> Actions:
-    """Reach a pose near obstacles: rise, travel above it, turn the wrist in free air, descend."""
+def go_to_pose(
+    ctx: Context, pos: np.ndarray, mat: np.ndarray, clearance: float = 0.08, stall: int | None = None
+) -> Actions:
+    """Reach a pose near obstacles: rise, travel above it, turn the wrist in free air, descend.
+
+    ``stall``: give up the turn and the descent once that many steps gain nothing (a pose the
+    arm cannot take here); False then.
+    """
     here = ctx.scene.eef_pos()
     high = max(here[2], pos[2] + clearance)
     if here[2] < high - 0.01:
         yield from ctx.motion.move(np.array([here[0], here[1], high]), None, tol=0.015, max_steps=60)
     yield from ctx.motion.move(np.array([pos[0], pos[1], high]), None, tol=0.015, max_steps=150)
-    yield from ctx.motion.move(np.array([pos[0], pos[1], high]), mat, tol=0.02, rot_tol=0.08, max_steps=60)
-    return (yield from ctx.motion.move(pos, mat, tol=0.01, max_steps=80))
+    yield from ctx.motion.move(
+        np.array([pos[0], pos[1], high]), mat, tol=0.02, rot_tol=0.08, max_steps=60, stall=stall
+    )
+    return (yield from ctx.motion.move(pos, mat, tol=0.01, max_steps=80, stall=stall))
 
 
 def turn_wrist(ctx: Context, angle: float, limit: float = 2.75) -> Generator[np.ndarray, None, float]:
