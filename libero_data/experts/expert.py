@@ -125,9 +125,13 @@ class Expert:
             return has_top_down_grasp(scene, obj)
 
         def covered(drawer: str, obj: str) -> bool:
-            from libero_data.experts.skills.drawer import covered_by_opening
+            from libero_data.experts.skills.drawer import covered_by_opening, grasp_left_open
 
-            return not is_open(drawer) and covered_by_opening(scene, drawer, obj)
+            return (
+                not is_open(drawer)
+                and covered_by_opening(scene, drawer, obj)
+                and not grasp_left_open(scene, drawer, obj)
+            )
 
         return plan(problem, joint_kind=joint_kind, is_open=is_open, graspable=graspable, covered=covered)
 

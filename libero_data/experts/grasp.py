@@ -71,6 +71,13 @@ class FixturePart:
     prefer: np.ndarray
 
 
+class Moved(NamedTuple):
+    """Bodies to plan around as if displaced by ``offset`` (m, world frame)."""
+
+    bodies: tuple[int, ...]
+    offset: np.ndarray
+
+
 #: Points as coordinates along a closing line, across it and up, sorted by the second.
 _Sorted = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -97,16 +104,21 @@ def plan_top_down(
     search: GraspSearch = GraspSearch(),
     part: FixturePart | None = None,
     stats: dict[str, int] | None = None,
+    moved: Moved | None = None,
 ) -> list[Grasp]:
     """Feasible top-down grasps of ``name`` (or of a ``part`` of it), best first; empty when
-    none fits. ``stats``, when given, counts the candidates rejected for each reason."""
+    none fits. ``stats``, when given, counts the candidates rejected for each reason;
+    ``moved`` plans as if those bodies stood elsewhere (a drawer once it is open)."""
     stats = {} if stats is None else stats
     obj = _subsample(scene.points(name) if part is None else part.points, search.max_points)
     lo, hi = obj.min(0), obj.max(0)
     margin = 0.12
     others = scene.obstacle_points(
-        exclude=(name,) if part is None else (), exclude_bodies=() if part is None else part.bodies
+        exclude=(name,) if part is None else (),
+        exclude_bodies=(() if part is None else part.bodies) + (() if moved is None else moved.bodies),
     )
+    if moved is not None:
+        others = np.concatenate([others, scene.points_of_bodies(list(moved.bodies)) + moved.offset])
     near = np.all((others[:, :2] > lo[:2] - margin) & (others[:, :2] < hi[:2] + margin), axis=1)
     others = _subsample(others[near], search.max_points)
     floor = _support_below(others, lo, hi)

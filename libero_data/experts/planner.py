@@ -9,7 +9,8 @@ Rules, in the order they are applied:
 - ``On(x, y)``/``In(x, y)`` where ``y`` itself must be moved: move ``y`` first;
 - ``On(x, R)`` of a flat object that cannot be grasped from above: push it;
 - an object that is moved later and that opening a drawer would cover (a bowl in front of
-  the cabinet): set it aside on the table before the drawer opens.
+  the cabinet), with no grasp as good left once it is open: push it aside (or, where no
+  stroke fits, set it aside) before the drawer opens.
 """
 
 from __future__ import annotations
@@ -117,7 +118,7 @@ def plan(
 
 
 def _clear_the_way(steps: list[Step], covered: Callable[[str, str], bool]) -> list[Step]:
-    """Before each drawer opens, set aside what it would cover and what is picked later."""
+    """Before each drawer opens, push aside what it would cover and what is picked later."""
     out: list[Step] = []
     moved: set[str] = set()
     for i, step in enumerate(steps):
@@ -126,7 +127,7 @@ def _clear_the_way(steps: list[Step], covered: Callable[[str, str], bool]) -> li
             later = [s.args[0] for s in steps[i + 1 :] if s.skill == "pick"]
             for obj in dict.fromkeys(later):
                 if obj not in moved and covered(drawer, obj):
-                    out += [Step("pick", (obj,), None), Step("set_aside", (obj, drawer), None)]
+                    out.append(Step("push_aside", (obj, drawer), None))
                     moved.add(obj)
         out.append(step)
     return out

@@ -9,6 +9,15 @@ from libero_data.experts.motion import OPEN, SLOW_BELOW, Actions
 from libero_data.experts.skills.base import Context, SkillFailed, lift
 
 MAX_EEF_HEIGHT_ABOVE_TABLE = 0.55
+#: Before lowering, wait at most this many steps for the held object to swing less than
+#: ``SWINGING`` m/s: the lowering follows the object itself, so only a swing that would carry it
+#: off the spot needs waiting out (held still to 2 cm/s, bowls waited ~11 steps on every place).
+SETTLE_STEPS = 8
+SWINGING = 0.05
+
+
+#: Free-space speed (m/s of the set-point) for an object held by a thin rim.
+GENTLE = 0.24
 
 
 def held_offset(ctx: Context) -> tuple[np.ndarray, float]:
@@ -68,10 +77,16 @@ def carry_to(
     target_z = bottom_z + body_above_bottom - (mat @ rel)[2] + above
     travel = max(clear, target_z + 0.05, start[2])
     travel = min(travel, ctx.table_height() + MAX_EEF_HEIGHT_ABOVE_TABLE)
+    if start[2] < travel - 0.01 and (yield from out_from_under(ctx, exclude)):
+        start = scene.eef_pos()
     if start[2] < travel - 0.01:
-        yield from lift(ctx, travel, speed=0.3 if ctx.notes.get("grasp_width", 1.0) >= 0.012 else 0.15)
+        # Rise only as high as it takes for a straight line from there up to the travel height
+        # over the target to clear everything on the way: the hand rises and travels at once.
+        rise = _diagonal_start(ctx, start, eef_xy, travel, body_above_bottom - (mat @ rel)[2], radius, exclude)
+        if rise > start[2] + 0.005:
+            yield from lift(ctx, rise, speed=0.3 if ctx.notes.get("grasp_width", 1.0) >= 0.012 else 0.15)
     # A thin rim between the fingers slips under fast turns and stops: carry it gently.
-    gentle = 0.18 if ctx.notes.get("grasp_width", 1.0) < 0.012 else None
+    gentle = GENTLE if ctx.notes.get("grasp_width", 1.0) < 0.012 else None
     # When only the start of the way needs the height (a bowl carried off a cabinet top),
     # come down as soon as the rest is clear: a far target is out of the stretched arm's
     # reach high up, and within it lower down.
@@ -92,8 +107,8 @@ def carry_to(
         raise SkillFailed(f"dropped {ctx.held} while carrying it")
     # An object held off its centre (by a handle) may have swung in the hand: let it settle,
     # then lower it closed loop on where the object itself is, not where it was.
-    for _ in range(15):
-        if scene.speed(ctx.held) < 0.02:
+    for _ in range(SETTLE_STEPS):
+        if scene.speed(ctx.held) < SWINGING:
             break
         yield from ctx.motion.hold(1, mat)
     speed = 0.12 + ctx.jitter(0.03)
@@ -123,6 +138,69 @@ def carry_to(
         # Down at twice the pace while the object is still well above where it goes.
         pace = 2.0 * speed if error_z < -SLOW_BELOW else speed
         yield from ctx.motion.move(goal, mat, speed=pace, tol=0.003, max_steps=2)
+    return False
+
+
+def _diagonal_start(
+    ctx: Context,
+    start: np.ndarray,
+    end_xy: np.ndarray,
+    travel: float,
+    grip_above_bottom: float,
+    radius: float,
+    exclude: tuple[str, ...],
+) -> float:
+    """The lowest grip-site height over ``start`` from which the straight line to ``end_xy`` at
+    the ``travel`` height keeps the held object's bottom 4 cm above what lies near the way."""
+    assert ctx.held is not None
+    pts = ctx.scene.obstacle_points(exclude=(ctx.held, *exclude))
+    a, b = np.asarray(start[:2]), np.asarray(end_xy[:2])
+    near = _distance_to_segment(pts[:, :2], a, b) < radius + 0.02
+    pts = pts[near]
+    if not len(pts):
+        return float(start[2])
+    fractions = np.linspace(0.0, 1.0, 13)
+    heights = []
+    for f in fractions:
+        xy = a + f * (b - a)
+        close = np.linalg.norm(pts[:, :2] - xy, axis=1) < radius
+        heights.append(float(pts[close, 2].max()) if close.any() else -np.inf)
+    floor = np.asarray(heights) + 0.04 + grip_above_bottom
+    for z0 in [*np.arange(float(start[2]), travel, 0.02), travel]:
+        if np.all(z0 + fractions * (travel - z0) >= floor):
+            return float(z0)
+    return float(travel)
+
+
+def _distance_to_segment(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    t = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-9), 0.0, 1.0)
+    return np.linalg.norm(xy - (a + t[:, None] * ab), axis=1)
+
+
+def out_from_under(ctx: Context, exclude: tuple[str, ...] = ()) -> Actions:
+    """Slide the held object sideways until nothing hangs over it (a bowl taken by its free side
+    from under an open drawer); False when nothing did. Straight up, it would hit what is above."""
+    assert ctx.held is not None
+    scene = ctx.scene
+    lo, hi = scene.aabb(ctx.held)
+    pts = scene.obstacle_points(exclude=(ctx.held, *exclude))
+    pts = pts[(pts[:, 2] > hi[2]) & (pts[:, 2] < hi[2] + 0.3)]
+
+    def over(shift: np.ndarray) -> np.ndarray:
+        inside = np.all((pts[:, :2] > lo[:2] + shift - 0.015) & (pts[:, :2] < hi[:2] + shift + 0.015), axis=1)
+        return pts[inside]
+
+    overhang = over(np.zeros(2))
+    if not len(overhang):
+        return False
+    away = (lo[:2] + hi[:2]) / 2 - overhang[:, :2].mean(0)
+    away /= max(float(np.linalg.norm(away)), 1e-9)
+    for distance in np.arange(0.02, 0.16, 0.01):
+        if not len(over(away * distance)):
+            goal = scene.eef_pos() + np.array([*(away * (distance + 0.01)), 0.0])
+            yield from ctx.motion.move(goal, scene.eef_mat(), tol=0.01, max_steps=40)
+            return True
     return False
 
 
