@@ -1,0 +1,108 @@
+#!/usr/bin/env bash
+# Issue 74's proof by learning: does a policy trained on demonstrations that fit the field's step
+# limits finish in time, where one trained on the expert's earlier, longer demonstrations runs out?
+#
+#   benchmarks/pace.sh [WORK_DIR] [PART]     (WORK_DIR default: ../pace-work beside the repository;
+#                                             PART: before, after, eval, report, or all, the default)
+#
+# before  The expert as it was before issue 74 (git commit BEFORE, expert code aba7309349fc), checked
+#         out as a worktree in WORK_DIR/before-src and run from there: 100 demonstrations of each of
+#         libero_goal/3 and libero_spatial/7 (its episodes kept whatever their length, as then), and
+#         the quick recipe trained on each.
+# after   Today's expert: the same two tasks and the three on which the quick recipe missed 80% in
+#         RESULTS ("Quick on the other suites": libero_spatial/8, libero_goal/1, libero_10/0), each
+#         episode within its suite's standard limit (generate's default --max-length), same recipe.
+# eval    Every run evaluated under the standard protocol (openpi's LIBERO loop, the suite's own
+#         limit after the 10 waits: spatial 220, goal 300, libero_10 520) from stored init states
+#         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
+# report  The runs' reports, the standard evaluations' table and the paired comparisons of the two
+#         tasks before and after, into benchmarks/results/pace/.
+#
+# Data as benchmarks/quick_suites.sh makes it: 64x64, `fast` images, LIBERO's placement sampler with
+# the stored states' arm noise (no stored init state: the evaluation's starts are unseen), seed 0.
+# The quick preset unchanged but for its evaluation limit, set to openpi's (its own evaluation: 20
+# stored and 20 held-out starts). Two runs at a time, one torch thread each; every step resumes.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+repo=$(pwd)
+work="${1:-../pace-work}"
+part="${2:-all}"
+case "$part" in before | after | eval | report | all) ;; *) echo "pace.sh: PART must be before, after, eval, report or all, not '$part'" >&2; exit 2 ;; esac
+mkdir -p "$work/logs"
+work=$(cd "$work" && pwd)
+results=benchmarks/results/pace
+export OMP_NUM_THREADS=1 SVT_LOG=1
+ld=$repo/.venv/bin/libero-data
+lb=$repo/.venv/bin/libero-bench
+#: The last commit with the expert before issue 74 (expert code aba7309349fc).
+BEFORE=d9e2855
+
+# name:suite:task:limit, in the order they start (the longest demonstrations first)
+before=(before-goal-3:libero_goal:3:300 before-spatial-7:libero_spatial:7:220)
+after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220 after-long-0:libero_10:0:520
+  after-spatial-8:libero_spatial:8:220 after-goal-1:libero_goal:1:300)
+
+generate() {  # name suite task: the dataset WORK/<name>-64
+  local name=$1 suite=$2 index=$3
+  if [[ $name == before-* ]]; then
+    if [[ ! -d $work/before-src ]]; then
+      git worktree add --detach "$work/before-src" "$BEFORE" >/dev/null
+    fi
+    # The old code, found first on the path; its generate kept every successful episode.
+    (cd "$work/before-src" && PYTHONPATH="$work/before-src" $ld generate --suite "$suite" --tasks "$index" \
+      --episodes-per-task 100 --image-size 64 --render-quality fast --workers 2 --seed 0 --out "$work/$name-64")
+  else
+    $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 --image-size 64 \
+      --render-quality fast --workers 2 --seed 0 --out "$work/$name-64"
+  fi
+}
+train() {  # name task limit
+  local name=$1 index=$2 limit=$3
+  echo "$(date +%H:%M) start $name (log: $work/logs/$name.log)"
+  $lb run --data "$work/$name-64" --tasks "$index" --algo seql --policy resnet_t --preset quick \
+    --set eval_max_steps="$limit" --workers 2 --threads 1 --out "$work/runs/$name" >"$work/logs/$name.log" 2>&1
+}
+learn() {  # entries...: each task's data, then its run (two at a time)
+  local pids=() entry name suite index limit failed=0
+  for entry in "$@"; do
+    IFS=: read -r name suite index limit <<<"$entry"
+    generate "$name" "$suite" "$index"
+    while (($(jobs -rp | wc -l) >= 2)); do wait -n || true; done
+    train "$name" "$index" "$limit" &
+    pids+=($!)
+  done
+  for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+  ((failed == 0)) || { echo "a run failed; its log in $work/logs says why" >&2; exit 1; }
+}
+standard() {  # entries...: each run under the standard protocol
+  local entry name suite index limit
+  for entry in "$@"; do
+    IFS=: read -r name suite index limit <<<"$entry"
+    $lb eval "$work/runs/$name" --protocol standard --trials 20 --tasks "$suite/$index" --workers 2 \
+      --out "$work/standard/$name"
+  done
+}
+
+case "$part" in
+  before) learn "${before[@]}" ;;
+  after) learn "${after[@]}" ;;
+  eval) standard "${before[@]}" "${after[@]}" ;;
+  all) learn "${before[@]}" && learn "${after[@]}" && standard "${before[@]}" "${after[@]}" ;;
+esac
+if [[ $part == report || $part == all ]]; then
+  mkdir -p "$results"
+  runs=()
+  for entry in "${before[@]}" "${after[@]}"; do
+    name=${entry%%:*}
+    runs+=("$work/runs/$name")
+    mkdir -p "$results/runs/$name" "$results/standard/$name"
+    cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
+    cp "$work/standard/$name"/{report.md,report.json,results.json} "$results/standard/$name/"
+  done
+  $lb report "${runs[@]}" --out "$results/report"
+  for task in goal-3 spatial-7; do
+    $lb compare "$work/runs/before-$task" "$work/runs/after-$task" --out "$results/compare-$task"
+  done
+  .venv/bin/python -m benchmarks.pace_report "$work" --out "$results"
+  echo "reports in $results"
+fi
