@@ -44,6 +44,11 @@ def test_tasks_table() -> None:
         # A field the library names, mapped to the command's option.
         (("generate", "--tasks", "0,0", "--out", "unused"), "the task list names a task twice (--tasks)"),
         (("generate", "--suite", "libero_goal", "--out", "unused", "--executor", "dask"), "(--executor)"),
+        (
+            ("generate", "--suite", "libero_goal", "--max-length", "0", "--out", "unused"),
+            "the length bound is a positive number of steps, 'standard' or 'none', got 0 (--max-length)",
+        ),
+        (("generate", "--max-length", "forever", "--out", "unused"), "got 'forever' (--max-length)"),
     ],
 )
 def test_bad_input_is_one_sentence_and_exit_2(args: tuple[str, ...], message: str) -> None:
