@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from libero_data.tasks.horizons import HUMAN_LONGEST, base_suite
+from libero_data.tasks.horizons import HUMAN_LONGEST, OTHER_LIMIT, base_suite
 
 if TYPE_CHECKING:
     from libero_data.tasks.task import Suite
@@ -123,7 +123,8 @@ def length_section(panels: Sequence[LengthPanel], image: str | None, closing: st
     lines = [
         "Lengths in control steps (20 Hz), against each task's *standard limit*: the steps the field's "
         "evaluations give a policy (openpi's LIBERO loop, counted after its 10 waiting steps; LIBERO-PRO's and "
-        "LIBERO-Plus's suites and robustness variants take the limit of the suite they come from), so the "
+        "LIBERO-Plus's suites and robustness variants take the limit of the suite they come from, tasks of no "
+        f"LIBERO suite {OTHER_LIMIT}, LeRobot's default), so the "
         "longest demonstration a policy copying its data's pace can afford; and beside the longest of LIBERO's "
         "human demonstrations of that suite.",
         "",

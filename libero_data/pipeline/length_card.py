@@ -112,7 +112,9 @@ def panels(suite: Suite, rows: Sequence[TaskLengths]) -> list[LengthPanel]:
         groups.setdefault(base_suite(suite, row.task.name), []).append(row)
     out = []
     for base, members in groups.items():
-        title = suite.name if len(groups) == 1 else f"{suite.name}: tasks of {base or 'no base suite'}"
+        title = suite.name if len(groups) == 1 else f"{suite.name}: tasks of {base or 'no LIBERO suite'}"
+        if base is None:
+            title += " (no base suite: the default limit)"
         human = human_longest(suite, members[0].task.name)
         out.append(
             LengthPanel(
