@@ -44,6 +44,11 @@ def test_tasks_table() -> None:
         # A field the library names, mapped to the command's option.
         (("generate", "--tasks", "0,0", "--out", "unused"), "the task list names a task twice (--tasks)"),
         (("generate", "--suite", "libero_goal", "--out", "unused", "--executor", "dask"), "(--executor)"),
+        (
+            ("generate", "--suite", "libero_goal", "--max-length", "0", "--out", "unused"),
+            "the length bound is a positive number of steps, 'standard' or 'none', got 0 (--max-length)",
+        ),
+        (("generate", "--max-length", "forever", "--out", "unused"), "got 'forever' (--max-length)"),
     ],
 )
 def test_bad_input_is_one_sentence_and_exit_2(args: tuple[str, ...], message: str) -> None:
@@ -112,3 +117,13 @@ def test_card_states_the_expert_report_it_was_rendered_from(tmp_path: Path) -> N
     assert "expert code" not in out.read_text()
     missing = card(tmp_path / "nope.csv")
     assert missing.returncode != 0 and "nope.csv does not exist" in missing.stderr + missing.stdout
+    # With the committed report and its journal: success within the standard limit, and the plot.
+    import shutil
+
+    cards = Path(__file__).resolve().parents[1] / "cards"
+    for name in ("expert_report.csv", "expert_report.jsonl"):
+        shutil.copy(cards / name, tmp_path / name)
+    result = card(tmp_path / "expert_report.csv")
+    assert result.returncode == 0 and f"wrote {out} and {tmp_path / 'card_lengths.png'}" in result.stdout
+    assert "| 100% (50/50) | 0% (0/50) |" in out.read_text()  # libero_goal/3: solved, never within 300
+    assert "![Episode lengths against the standard limit](card_lengths.png)" in out.read_text()

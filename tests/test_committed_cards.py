@@ -1,7 +1,9 @@
-"""The committed expert table in ``cards/`` is whole and meets the targets it is held to.
+"""The committed expert table in ``cards/`` is whole and meets the targets it is held to, and every
+committed table, plot and suite card is what today's code makes from the committed journals.
 
 Reads the committed files only (no simulation): a table with a task missing, a suite whose
-95% interval lies under its target or a task whose interval lies under the floor must not land.
+95% interval lies under its target or a task whose interval lies under the floor must not land,
+nor a table or card left stale by a change of the code that writes it.
 """
 
 from __future__ import annotations
@@ -106,3 +108,56 @@ def test_the_libero_plus_card_covers_its_sample_by_the_main_tables_expert(
     assert (folder / "by_category.md").read_text() == markdown(table, settings)
     main = json.loads((CARDS / "expert_report.jsonl").read_text().splitlines()[0])["settings"]
     assert settings["expert"] == main["expert"]
+
+
+#: The folders whose expert report tables (and length plot) are written from their journal.
+REPORTS = ("", "libero_pro", "libero_plus")
+
+
+@pytest.mark.parametrize("folder", REPORTS)
+def test_the_committed_tables_are_what_the_report_code_makes_of_their_journal(
+    folder: str, tmp_path: Path
+) -> None:
+    """Written again from ``expert_report.jsonl`` alone (``libero-data expert-report --tables-only``):
+    the CSV, the Markdown (success within the standard limit beside success at all) and the plot."""
+    import shutil
+
+    from libero_data.cards.expert_files import rewrite_report
+    from libero_data.cards.expert_table import LENGTH_PLOT
+
+    committed = CARDS / folder
+    shutil.copy(committed / "expert_report.jsonl", tmp_path)
+    rewrite_report(tmp_path)
+    for name in ("expert_report.csv", "expert_report.md"):
+        assert (tmp_path / name).read_text() == (committed / name).read_text(), f"{folder}/{name} is stale"
+    assert (tmp_path / LENGTH_PLOT).read_bytes() == (committed / LENGTH_PLOT).read_bytes(), folder
+
+
+@pytest.mark.parametrize("suite", sorted(TARGETS))
+def test_the_committed_suite_cards_are_what_the_card_code_makes_of_the_report(suite: str) -> None:
+    """``libero-data card --suite S --expert-report cards/expert_report.csv --out cards/S.md``: the
+    card (its versions are the lock's) and its length plot."""
+    from libero_data.cards.expert_files import read_measured, report_settings
+    from libero_data.pipeline.describe import suite_card
+
+    text, plot = suite_card(
+        suite,
+        read_measured(CARDS / "expert_report.csv"),
+        measured_by=report_settings(CARDS / "expert_report.jsonl"),
+        lengths_image=f"{suite}_lengths.png",
+    )
+    assert text == (CARDS / f"{suite}.md").read_text(), f"cards/{suite}.md is stale"
+    assert plot == (CARDS / f"{suite}_lengths.png").read_bytes()
+
+
+def test_the_cards_state_success_within_the_standard_limit_beside_success_at_all() -> None:
+    from libero_data.cards.expert_table import summarise, within_words
+    from libero_data.experts.report import read_report
+
+    summary = summarise(list(read_report(CARDS / "expert_report.jsonl")[1].values()))
+    table = (CARDS / "expert_report.md").read_text()
+    for suite, s in summary.items():
+        assert f"| {within_words(s)} | {s['limit']:.0f} |" in table, suite
+        card = (CARDS / f"{suite}.md").read_text()
+        assert f"within the standard limit {int(s['within'])}/{int(s['episodes'])} (" in card, suite
+        assert f"| length bound (steps) | {s['limit']:.0f} steps: each task's standard limit" in card

@@ -18,10 +18,18 @@ class CardTask:
     episodes: int
     attempts: int
     successes: int
+    #: of the successes, those within the task's standard step limit (None: not known)
+    within: int | None = None
 
     @property
     def success_rate(self) -> float:
         return self.successes / self.attempts if self.attempts else float("nan")
+
+    def within_cell(self) -> str:
+        """The task table's *within the standard limit* cell."""
+        if self.within is None or not self.attempts:
+            return "–"
+        return f"{self.within / self.attempts:.0%} ({self.within}/{self.attempts})"
 
 
 def _cell(text: str) -> str:
@@ -90,6 +98,7 @@ def render_card(
     settings: dict[str, str],
     start_note: str,
     expert_note: str = "",
+    lengths: str = "",
     camera_keys: dict[str, str] | None = None,
     image_note: str = FULL_IMAGE_NOTE,
     kind_tag: str = "scripted-demonstrations",
@@ -105,7 +114,8 @@ def render_card(
     for t in tasks:
         rate = f"{t.success_rate:.0%} ({t.successes}/{t.attempts})" if t.attempts else "–"
         rows.append(
-            f"| {t.index} | `{t.name}` | {_cell(t.language)} | `{_cell(t.goal)}` | {t.episodes} | {rate} |"
+            f"| {t.index} | `{t.name}` | {_cell(t.language)} | `{_cell(t.goal)}` | {t.episodes} | {rate} "
+            f"| {t.within_cell()} |"
         )
     settings_rows = "\n".join(f"| {_cell(k)} | {_cell(str(v))} |" for k, v in settings.items())
     # The split's size in the YAML header: `datasets.load_dataset(folder)` keys its cache on
@@ -134,6 +144,7 @@ def render_card(
         settings_rows=settings_rows,
         start_note=start_note,
         expert_note=expert_note,
+        lengths=lengths or "Not stated.",
         image_note=image_note,
         kind_tag=kind_tag,
         how_made=how_made,

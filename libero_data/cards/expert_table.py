@@ -1,8 +1,13 @@
-"""The expert report's tables: targets, per-suite summary, CSV and Markdown.
+"""The expert report's tables: targets, per-suite summary, CSV and Markdown, the length plot.
 
 Kept apart from :mod:`libero_data.experts.report` (which runs the episodes) so that the
 expert's code fingerprint, which a resumed report checks, covers only code that decides an
-episode: rewording a table does not throw measured tasks away.
+episode: rewording a table does not throw measured tasks away. Everything here is a function of
+the report's journal (``expert_report.jsonl``): the tables can be written again from it alone.
+
+Beside success at all, each task's and suite's success *within the standard limit* (the step
+limit the field's evaluations give a task: :func:`libero_data.tasks.horizons.standard_limit`) is
+counted from the successful episodes' recorded lengths.
 """
 
 from __future__ import annotations
@@ -10,13 +15,15 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from libero_data.errors import FileFormatError, MissingFileError
-from libero_data.runtime.files import write_text
-from libero_data.tasks.horizons import HUMAN_LONGEST
+from libero_data.cards.lengths import LengthPanel, human_longest, length_plot, length_summary, within_limit
+from libero_data.runtime.files import write_bytes, write_text
+from libero_data.stats import wilson_interval
+from libero_data.tasks.horizons import HUMAN_LONGEST, OPENPI_LIMITS, OTHER_LIMIT, base_suite, standard_limit
 
 if TYPE_CHECKING:
     from libero_data.experts.report import TaskResult
@@ -48,35 +55,6 @@ LENGTH_BOUNDS = {
 }
 
 
-def length_summary(lengths: list[int]) -> dict[str, float]:
-    """Mean, median, 95th percentile and longest of episode lengths (NaN where there are none)."""
-    import numpy as np
-
-    if not lengths:
-        nan = float("nan")
-        return {"mean": nan, "median": nan, "p95": nan, "longest": nan}
-    values = np.asarray(lengths, dtype=float)
-    return {
-        "mean": float(values.mean()),
-        "median": float(np.median(values)),
-        "p95": float(np.percentile(values, 95)),
-        "longest": float(values.max()),
-    }
-
-
-def length_line(lengths: list[int], suite: str) -> str:
-    """A dataset's episode lengths in one line, beside LIBERO's longest human demonstration."""
-    if not lengths:
-        return "–"
-    s = length_summary(lengths)
-    line = (
-        f"mean {s['mean']:.0f}, median {s['median']:.0f}, 95th percentile {s['p95']:.0f}, "
-        f"longest {s['longest']:.0f}"
-    )
-    human = HUMAN_LONGEST.get(suite)
-    return line + (f" (LIBERO's longest human demonstration of {suite}: {human})" if human else "")
-
-
 def phase_shares(phases: dict[str, int]) -> str:
     """Where the steps went, as shares of all of them: ``pick 41%; place_on 33%; ...``."""
     total = sum(phases.values())
@@ -86,11 +64,25 @@ def phase_shares(phases: dict[str, int]) -> str:
     return "; ".join(f"{name} {count / total:.0%}" for name, count in ranked)
 
 
+def task_limit(result: TaskResult) -> int:
+    """The standard step limit of a measured task (its base suite's, from its suite and name)."""
+    return standard_limit(result.suite, result.name)
+
+
+def task_within(result: TaskResult) -> int | None:
+    """How many of a task's episodes succeeded within its standard limit; None where the report
+    did not record the successful episodes' lengths (reports measured before lengths were)."""
+    if len(result.lengths) != result.successes:
+        return None
+    return within_limit(result.lengths, task_limit(result))
+
+
 def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
     """Per suite: episodes, successes, rate and its 95% interval (``low``, ``high``), target,
-    and the lowest task rate with the upper end of its interval (``lowest_task_high``)."""
-    from libero_data.stats import wilson_interval
-
+    the lowest task rate with the upper end of its interval (``lowest_task_high``), and the
+    successes within the standard limit (``within``, ``within_rate``, ``within_low``,
+    ``within_high``; NaN where lengths were not recorded) with the suite's ``limit`` (NaN where
+    its tasks have different ones)."""
     out: dict[str, dict[str, float]] = {}
     for suite in dict.fromkeys(r.suite for r in results):
         rows = [r for r in results if r.suite == suite]
@@ -98,6 +90,10 @@ def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
         successes = sum(r.successes for r in rows)
         low, high = wilson_interval(successes, episodes)
         lowest = min(rows, key=lambda r: r.rate)
+        counts = [task_within(r) for r in rows]
+        within = float("nan") if None in counts else float(sum(c or 0 for c in counts))
+        w_low, w_high = (float("nan"),) * 2 if math.isnan(within) else wilson_interval(int(within), episodes)
+        limits = {task_limit(r) for r in rows}
         out[suite] = {
             "tasks": len(rows),
             "episodes": episodes,
@@ -108,6 +104,11 @@ def summarise(results: list[TaskResult]) -> dict[str, dict[str, float]]:
             "target": TARGETS.get(suite, float("nan")),
             "lowest_task_rate": lowest.rate,
             "lowest_task_high": wilson_interval(lowest.successes, lowest.episodes)[1],
+            "within": within,
+            "within_rate": within / episodes if episodes else float("nan"),
+            "within_low": w_low,
+            "within_high": w_high,
+            "limit": float(limits.pop()) if len(limits) == 1 else float("nan"),
         }
     return out
 
@@ -136,50 +137,129 @@ def falls_short(summary: dict[str, float]) -> list[str]:
     return out
 
 
+def within_words(s: Mapping[str, float]) -> str:
+    """A suite's success within the standard limit: ``85.2% (426/500, 81.8%–88.1%)``, or ``–``."""
+    if math.isnan(s["within"]):
+        return "–"
+    return (
+        f"{s['within_rate']:.1%} ({int(s['within'])}/{int(s['episodes'])}, "
+        f"{s['within_low']:.1%}–{s['within_high']:.1%})"
+    )
+
+
+def limit_words(limit: float, suite: str) -> str:
+    """A suite's standard limit as a table cell (a suite without a base suite says so)."""
+    if math.isnan(limit):
+        return "per task"
+    return f"{limit:.0f}" if base_suite(suite) is not None else f"{limit:.0f} (no base suite)"
+
+
+#: The plot ``write_report`` writes beside the tables.
+LENGTH_PLOT = "expert_lengths.png"
+
+#: What the tables say "within the standard limit" means.
+LIMIT_NOTE = (
+    "*Within the standard limit*: episodes that reached the goal in at most their task's standard step limit, "
+    "the limit the field's evaluations give a policy (openpi's LIBERO loop, counted after its 10 waiting steps: "
+    + ", ".join(f"{suite} {n}" for suite, n in OPENPI_LIMITS.items())
+    + "; LIBERO-PRO's and LIBERO-Plus's suites and robustness variants take their base suite's, a task with "
+    f"no base suite {OTHER_LIMIT}): a policy that copies the demonstrations' pace can afford no longer ones. "
+    "`libero-data generate` keeps only episodes within it by default (`--max-length`)."
+)
+
+
 def write_report(
-    results: list[TaskResult], out_dir: str | Path, *, meta: dict[str, str] | None = None
+    results: list[TaskResult], out_dir: str | Path, *, meta: Mapping[str, str] | None = None
 ) -> tuple[Path, Path]:
-    """Write ``expert_report.csv`` and ``expert_report.md`` into ``out_dir``."""
+    """Write ``expert_report.csv``, ``expert_report.md`` and (where lengths were recorded) the
+    length plot ``expert_lengths.png`` into ``out_dir``; tasks in :func:`table_order`."""
+    results = table_order(results)
     out = Path(out_dir)
     csv_path, md_path = out / "expert_report.csv", out / "expert_report.md"
-    fields = [
-        "suite",
-        "index",
-        "name",
-        "episodes",
-        "successes",
-        "rate",
-        "mean_length",
-        "median_length",
-        "p95_length",
-        "longest_length",
-        "phases",
-        "seconds_per_episode",
-        "failures",
-    ]
-    table = io.StringIO(newline="")
-    writer = csv.DictWriter(table, fieldnames=fields)
-    writer.writeheader()
-    for r in results:
-        row = {k: v for k, v in asdict(r).items() if k != "lengths"}
-        kept = length_summary(r.lengths)
-        row["median_length"], row["p95_length"] = _steps(kept["median"]), _steps(kept["p95"])
-        row["longest_length"] = _steps(kept["longest"])
-        row["phases"] = phase_shares(r.phases)
-        row["rate"] = f"{r.rate:.3f}"
-        row["mean_length"] = f"{r.mean_length:.1f}"
-        row["seconds_per_episode"] = f"{r.seconds_per_episode:.2f}"
-        row["failures"] = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
-        writer.writerow(row)
-    write_text(csv_path, table.getvalue())
+    write_text(csv_path, _csv_text(results))
     lines = ["# Scripted expert: success over stored init states", ""]
     for key, value in (meta or {}).items():
         lines.append(f"- {key}: {value}")
     if meta:
         lines.append("")
+    lines += _summary_lines(results)
+    panels = suite_panels(results)
+    lines += _length_table(results, plotted=bool(panels))
+    if panels:
+        write_bytes(out / LENGTH_PLOT, length_plot(panels))
     lines += [
-        f"| suite | tasks | episodes | success (95% interval) | target | against the target | lowest task (floor {TASK_FLOOR:.0%}) |",
-        "|---|---:|---:|---:|---:|---|---:|",
+        "",
+        "| task | instruction | success | within the standard limit | mean steps | failures |",
+        "|---|---|---:|---:|---:|---|",
+    ]
+    from libero_data.tasks.suites import language_from_name
+
+    for r in results:
+        fails = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
+        within = task_within(r)
+        lines.append(
+            f"| {r.suite}/{r.index} | {language_from_name(r.name)} | {r.successes}/{r.episodes} "
+            f"| {'–' if within is None else f'{within}/{r.episodes}'} | {r.mean_length:.0f} | {fails} |"
+        )
+    write_text(md_path, "\n".join(lines) + "\n")
+    return csv_path, md_path
+
+
+def table_order(results: list[TaskResult]) -> list[TaskResult]:
+    """The tables' order: suites as they first come, each suite's tasks by index (so the tables
+    do not depend on which task a worker finished first)."""
+    rank = {suite: i for i, suite in enumerate(dict.fromkeys(r.suite for r in results))}
+    return sorted(results, key=lambda r: (rank[r.suite], r.index))
+
+
+#: The CSV's columns.
+CSV_FIELDS = (
+    "suite",
+    "index",
+    "name",
+    "episodes",
+    "successes",
+    "rate",
+    "limit",
+    "within_limit",
+    "within_limit_rate",
+    "mean_length",
+    "median_length",
+    "p95_length",
+    "longest_length",
+    "phases",
+    "seconds_per_episode",
+    "failures",
+)
+
+
+def _csv_text(results: list[TaskResult]) -> str:
+    table = io.StringIO(newline="")
+    writer = csv.DictWriter(table, fieldnames=list(CSV_FIELDS))
+    writer.writeheader()
+    for r in results:
+        row: dict[str, Any] = {k: v for k, v in asdict(r).items() if k != "lengths"}
+        kept = length_summary(r.lengths)
+        row["median_length"], row["p95_length"] = _steps(kept["median"]), _steps(kept["p95"])
+        row["longest_length"] = _steps(kept["longest"])
+        row["phases"] = phase_shares(r.phases)
+        row["rate"] = f"{r.rate:.3f}"
+        within = task_within(r)
+        row["limit"] = task_limit(r)
+        row["within_limit"] = "" if within is None else within
+        row["within_limit_rate"] = "" if within is None or not r.episodes else f"{within / r.episodes:.3f}"
+        row["mean_length"] = f"{r.mean_length:.1f}"
+        row["seconds_per_episode"] = f"{r.seconds_per_episode:.2f}"
+        row["failures"] = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
+        writer.writerow(row)
+    return table.getvalue()
+
+
+def _summary_lines(results: list[TaskResult]) -> list[str]:
+    lines = [
+        f"| suite | tasks | episodes | success (95% interval) | target | against the target | lowest task (floor {TASK_FLOOR:.0%}) "
+        "| within the standard limit (95% interval) | standard limit |",
+        "|---|---:|---:|---:|---:|---|---:|---:|---:|",
     ]
     for suite, s in summarise(results).items():
         # Two targets, judged apart: the suite's rate, and every task at or above the floor.
@@ -190,25 +270,18 @@ def write_report(
         )
         lines.append(
             f"| {suite} | {int(s['tasks'])} | {int(s['episodes'])} | {s['rate']:.1%} ({s['low']:.1%}–{s['high']:.1%}) "
-            f"| {_target(s['target'])} | {verdict(s['rate'], s['high'], s['target'])} | {s['lowest_task_rate']:.0%} {floor_ok} |"
+            f"| {_target(s['target'])} | {verdict(s['rate'], s['high'], s['target'])} | {s['lowest_task_rate']:.0%} {floor_ok} "
+            f"| {within_words(s)} | {limit_words(s['limit'], suite)} |"
         )
-    lines += [
+    return [
+        *lines,
         "",
         "A suite falls short of its target only where its 95% interval (Wilson) lies wholly below it; a rate "
         "just under the target is said so in words. The same for a task and the floor (✓ at or above, "
-        "≈ below but within its interval, ✗ below it).",
+        "≈ below but within its interval, ✗ below it). The targets hold success at all.",
+        "",
+        LIMIT_NOTE,
     ]
-    lines += _length_table(results)
-    lines += ["", "| task | instruction | success | mean steps | failures |", "|---|---|---:|---:|---|"]
-    from libero_data.tasks.suites import language_from_name
-
-    for r in results:
-        fails = "; ".join(f"{k} ({v})" for k, v in r.failures.items())
-        lines.append(
-            f"| {r.suite}/{r.index} | {language_from_name(r.name)} | {r.successes}/{r.episodes} | {r.mean_length:.0f} | {fails} |"
-        )
-    write_text(md_path, "\n".join(lines) + "\n")
-    return csv_path, md_path
 
 
 def _target(target: float) -> str:
@@ -219,63 +292,67 @@ def _steps(value: float) -> str:
     return "" if value != value else f"{value:.0f}"
 
 
-def _length_table(results: list[TaskResult]) -> list[str]:
-    """Per suite, the successful episodes' lengths beside LIBERO's longest human demonstration."""
-    suites = [
+def _suites_with_lengths(results: list[TaskResult]) -> list[str]:
+    return [
         s for s in dict.fromkeys(r.suite for r in results) if any(r.lengths for r in results if r.suite == s)
     ]
+
+
+def suite_panels(results: list[TaskResult]) -> list[LengthPanel]:
+    """The length plot's panels: per suite with recorded lengths, its successful episodes."""
+    panels = []
+    for suite in _suites_with_lengths(results):
+        rows = [r for r in results if r.suite == suite]
+        human = human_longest(suite, rows[0].name)
+        panels.append(
+            LengthPanel(
+                title=suite,
+                lengths=tuple(n for r in rows for n in r.lengths),
+                limits=tuple(sorted({task_limit(r) for r in rows})),
+                within=sum(within_limit(r.lengths, task_limit(r)) for r in rows),
+                human=human[1] if human else None,
+            )
+        )
+    return panels
+
+
+def _length_table(results: list[TaskResult], *, plotted: bool) -> list[str]:
+    """Per suite, the successful episodes' lengths against the standard limit and beside LIBERO's
+    longest human demonstration (of the suite's base suite)."""
+    suites = _suites_with_lengths(results)
     if not suites:
         return []
+    summary = summarise(results)
     lines = [
         "",
-        "Lengths of the successful episodes (what a dataset keeps), in control steps at 20 Hz, beside the "
-        "longest of LIBERO's human demonstrations of the suite; and where the steps went (skills of the plan, "
-        "attempts that failed, the wait for the goal after the plan).",
+        "Lengths of the successful episodes (what a dataset keeps), in control steps at 20 Hz, against the "
+        "standard limit and beside the longest of LIBERO's human demonstrations of the suite (of the suite it "
+        "perturbs, for LIBERO-PRO's and LIBERO-Plus's); and where the steps went (skills of the plan, attempts "
+        "that failed, the wait for the goal after the plan).",
         "",
-        "| suite | episodes | mean | median | 95th percentile | longest | LIBERO human longest | where the steps go |",
-        "|---|---:|---:|---:|---:|---:|---:|---|",
+        "| suite | episodes | mean | median | 95th percentile | longest | within the standard limit "
+        "| standard limit | LIBERO human longest | where the steps go |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for suite in suites:
         rows = [r for r in results if r.suite == suite]
         lengths = [n for r in rows for n in r.lengths]
+        within = sum(within_limit(r.lengths, task_limit(r)) for r in rows)
         phases: dict[str, int] = {}
         for r in rows:
             for name, count in r.phases.items():
                 phases[name] = phases.get(name, 0) + count
         s = length_summary(lengths)
-        human = HUMAN_LONGEST.get(suite)
+        human = human_longest(suite, rows[0].name)
         lines.append(
             f"| {suite} | {len(lengths)} | {s['mean']:.0f} | {_steps(s['median'])} | {_steps(s['p95'])} "
-            f"| {_steps(s['longest'])} | {human if human is not None else '—'} | {phase_shares(phases)} |"
+            f"| {_steps(s['longest'])} | {within}/{len(lengths)} ({within / len(lengths):.0%}) "
+            f"| {limit_words(summary[suite]['limit'], suite)} | {human[1] if human else '—'} | {phase_shares(phases)} |"
         )
+    if plotted:
+        lines += [
+            "",
+            f"![Lengths of the successful episodes per suite, against the standard limit (red) and LIBERO's "
+            f"longest human demonstration (dashed)]({LENGTH_PLOT})",
+        ]
     return lines
-
-
-def read_rates(csv_path: Path) -> dict[str, tuple[int, int]]:
-    """{task name: (successes, episodes)} of an ``expert_report.csv``."""
-    if not Path(csv_path).is_file():
-        raise MissingFileError(f"expert report {csv_path} does not exist")
-    with Path(csv_path).open(newline="") as f:
-        try:
-            return {row["name"]: (int(row["successes"]), int(row["episodes"])) for row in csv.DictReader(f)}
-        except (KeyError, TypeError, ValueError, csv.Error, UnicodeDecodeError) as exc:
-            what = f"no {exc.args[0]!r} column" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
-            raise FileFormatError(f"{csv_path} is not an expert report table ({what})") from None
-
-
-def report_settings(journal: Path) -> dict[str, str] | None:
-    """Expert code, init states and seed from an expert report's journal header, if it has one."""
-    import json
-
-    try:
-        settings = json.loads(Path(journal).read_text().split("\n", 1)[0])["settings"]
-        found = {
-            "expert code": str(settings["expert"]),
-            "init states per task": str(settings["inits"]),
-            "seed": str(settings["seed"]),
-        }
-        if "numeric_key" in settings:  # reports since machines were recorded
-            found["numeric path"] = str(settings["numeric_key"])
-        return found
-    except (OSError, ValueError, KeyError, TypeError):
-        return None  # no journal beside the table (or not one): the card just says less

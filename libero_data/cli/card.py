@@ -21,18 +21,28 @@ def card_cmd(
     image_size: Annotated[int, typer.Option("--image-size", min=32, max=512)] = 128,
     seed: Annotated[int, typer.Option("--seed")] = 0,
 ) -> None:
-    """Render the dataset card that `generate` would write for a suite, from an expert report."""
-    from libero_data.cards.expert_table import read_rates, report_settings
-    from libero_data.pipeline.describe import suite_card
-    from libero_data.runtime.files import write_text
+    """Render the dataset card that `generate` would write for a suite, from an expert report.
 
-    text = suite_card(
+    Where the report's journal (expert_report.jsonl) is beside its table, the card also shows the
+    episodes' lengths against each task's standard step limit, with a plot OUT_lengths.png beside it.
+    """
+    from libero_data.cards.expert_files import read_measured, report_settings
+    from libero_data.pipeline.describe import suite_card
+    from libero_data.runtime.files import write_bytes, write_text
+
+    image = out.with_name(f"{out.stem}_lengths.png")
+    text, plot = suite_card(
         suite,
-        read_rates(report),
+        read_measured(report),
         episodes_per_task=episodes_per_task,
         image_size=image_size,
         seed=seed,
         measured_by=report_settings(report.with_suffix(".jsonl")),
+        lengths_image=image.name,
     )
     write_text(out, text)
-    say(f"wrote {out}")
+    if plot is not None:
+        write_bytes(image, plot)
+        say(f"wrote {out} and {image}")
+    else:
+        say(f"wrote {out}")

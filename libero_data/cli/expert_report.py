@@ -51,6 +51,14 @@ def expert_report_cmd(
             help="Start over instead of resuming the report already in --out (expert_report.jsonl).",
         ),
     ] = False,
+    tables_only: Annotated[
+        bool,
+        typer.Option(
+            "--tables-only",
+            help="Measure nothing: write the tables and the length plot again from OUT/expert_report.jsonl "
+            "alone (after the tables' code changed).",
+        ),
+    ] = False,
     plus: PlusFilesOption = None,
     plus_assets: PlusAssetsOption = None,
 ) -> None:
@@ -58,18 +66,27 @@ def expert_report_cmd(
 
     Every finished task is journalled in OUT/expert_report.jsonl; stop at any time and run
     the same command again to measure only the tasks still missing. The tables
-    (expert_report.csv / .md) are rewritten after every task.
+    (expert_report.csv / .md, with success within each task's standard step limit beside success
+    at all, and the length plot expert_lengths.png) are rewritten after every task.
     """
-    from libero_data.cards.expert_table import summarise, verdict, write_report
+    from libero_data.cards.expert_files import report_meta, rewrite_report
+    from libero_data.cards.expert_table import write_report
     from libero_data.experts.expert import ExpertConfig
-    from libero_data.experts.report import ReportJournal, run_report
+    from libero_data.experts.report import ReportJournal, read_report, run_report
+    from libero_data.numerics import machine_fingerprint
+    from libero_data.provenance import machine_line
     from libero_data.tasks import SUITE_NAMES
 
+    if tables_only:
+        csv_path, md_path = rewrite_report(out)
+        _print_summary(list(read_report(out / ReportJournal.NAME)[1].values()))
+        say(f"wrote {csv_path} and {md_path} from {out / ReportJournal.NAME}")
+        return
     use_plus(plus, plus_assets)
     refs = _task_refs(split_list(suite), split_list(tasks), list(SUITE_NAMES[:5]))
     config = ExpertConfig()
     settings = _settings(inits, seed, config)
-    journal = ReportJournal(out, settings, fresh=fresh)
+    journal = ReportJournal(out, settings, fresh=fresh, machine=machine_line(machine_fingerprint()))
     todo = [r for r in refs if r not in journal.done]
     if len(todo) < len(refs):
         say(
@@ -77,15 +94,15 @@ def expert_report_cmd(
             stderr=True,
         )
 
-    def rows() -> list[Any]:
-        return [journal.done[r] for r in refs if r in journal.done]
+    def rows() -> list[Any]:  # in the journal's order, as `--tables-only` reads them
+        return [result for ref, result in journal.done.items() if ref in set(refs)]
 
     with progress("last") as bar:
         job = bar.add_task("tasks", total=len(refs), completed=len(refs) - len(todo), last="")
 
         def finished(ref: str, result: Any) -> None:
             journal.add(ref, result)
-            write_report(rows(), out, meta=_table_meta(rows(), settings, len(refs)))
+            write_report(rows(), out, meta=report_meta(journal.header, rows(), len(refs)))
             bar.update(job, advance=1, last=f"{ref}: {result.successes}/{result.episodes}")
 
         run_report(
@@ -98,16 +115,24 @@ def expert_report_cmd(
             fingerprint=str(settings["expert"]),
         )
     results = rows()
-    csv_path, md_path = write_report(results, out, meta=_table_meta(results, settings, len(refs)))
+    csv_path, md_path = write_report(results, out, meta=report_meta(journal.header, results, len(refs)))
+    _print_summary(results)
+    say(f"wrote {csv_path} and {md_path}")
+
+
+def _print_summary(results: list[Any]) -> None:
+    """Per suite: success at all against its target, the lowest task, success within the limit."""
+    from libero_data.cards.expert_table import limit_words, summarise, verdict, within_words
+
     for name, s in summarise(results).items():
         console().print(
             f"{name}: {s['rate']:.1%} of {int(s['episodes'])} (95% interval {s['low']:.1%}–{s['high']:.1%}; "
             + ("" if math.isnan(s["target"]) else f"target {s['target']:.0%}: ")
             + f"{verdict(s['rate'], s['high'], s['target'])}), "
-            + f"lowest task {s['lowest_task_rate']:.0%}",
+            + f"lowest task {s['lowest_task_rate']:.0%}; "
+            + f"within the standard limit ({limit_words(s['limit'], name)}): {within_words(s)}",
             markup=False,
         )
-    say(f"wrote {csv_path} and {md_path}")
 
 
 def _task_refs(suites: list[str], tasks: list[str], default: list[str]) -> list[str]:
@@ -139,22 +164,3 @@ def _settings(inits: int, seed: int, config: Any) -> dict[str, object]:
         # Rows measured on another numeric path would not reproduce on one machine.
         "numeric_key": machine_fingerprint()["numeric_key"],
     }
-
-
-def _table_meta(rows: list[Any], settings: dict[str, object], total: int) -> dict[str, str]:
-    """The lines above the report's tables."""
-    from libero_data.numerics import machine_fingerprint
-    from libero_data.provenance import machine_line
-    from libero_data.runtime.versions import versions
-
-    machine = machine_fingerprint()
-    meta = {
-        "inits per task": str(settings["inits"]),
-        "seed": str(settings["seed"]),
-        "expert code": str(settings["expert"]),
-        "tasks measured": f"{len(rows)} of {total}",
-        "episode-minutes": f"{sum(r.seconds_per_episode * r.episodes for r in rows) / 60:.0f}",
-    }
-    meta.update({f"version {k}": v for k, v in versions().items()})
-    meta[f"numeric path {machine['numeric_key']}"] = machine_line(machine)
-    return meta

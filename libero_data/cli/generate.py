@@ -140,6 +140,18 @@ MaxAttempts = Annotated[
     int,
     typer.Option("--max-attempts", help="Expert attempts per episode before the episode is given up.", min=1),
 ]
+MaxLength = Annotated[
+    str,
+    typer.Option(
+        "--max-length",
+        metavar="N|standard|none",
+        help="Longest episode kept, in control steps: N, 'standard' (each task's standard evaluation limit: "
+        "openpi's step limit of its suite, libero_spatial 220, libero_object 280, libero_goal 300, libero_10 520, "
+        "libero_90 400; LIBERO-PRO/Plus suites and variants take their base suite's, procedural tasks 500) or "
+        "'none'. An attempt still going at the bound is stopped and counts as a failed attempt; the card states "
+        "the bound and what it cost.",
+    ),
+]
 RepoId = Annotated[
     str | None,
     typer.Option("--repo-id", help="Dataset id recorded in the metadata; default libero-data/<suite>."),
@@ -192,6 +204,7 @@ def generate_cmd(
     workers: Workers = 1,
     seed: Seed = 0,
     max_attempts: MaxAttempts = 8,
+    max_length: MaxLength = "standard",
     repo_id: RepoId = None,
     publish_every: PublishEvery = 60.0,
     keep_work: KeepWork = False,
@@ -204,7 +217,7 @@ def generate_cmd(
 
     Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
     """
-    from libero_data.pipeline.request import resolve_request
+    from libero_data.pipeline.request import parse_max_length, resolve_request
     from libero_data.record.features import PROFILE_IMAGE_SIZE
     from libero_data.runtime.jobs import JobPlacement
     from libero_data.runtime.memory import limit_malloc_arenas
@@ -213,6 +226,7 @@ def generate_cmd(
     limit_malloc_arenas()  # with --workers 1 this process renders and writes every episode
     runner = JobPlacement(executor, workers, ray_address)  # checked before any work
     use_plus(plus, plus_assets)
+    length_bound = parse_max_length(max_length)  # a bad value fails before any task is sampled
     task_refs = split_list(tasks)
     _check_combination(suite, task_refs, procedural, variants_of, scene, template, kinds or level, tasks_only)
     if procedural is not None or variants_of is not None:
@@ -237,6 +251,7 @@ def generate_cmd(
         features=features,
         render_quality=render_quality,
         arm_noise=arm_noise,
+        max_length=length_bound,
     )
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     from libero_data.pipeline.generate import check_output

@@ -13,17 +13,18 @@ from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from libero_data.errors import FolderError, SettingsChanged
+from libero_data.errors import FolderError, MissingFileError, SettingsChanged
 from libero_data.experts.expert import ExpertConfig
 from libero_data.runtime.files import Journal
 from libero_data.runtime.folder import changed_keys
 from libero_data.runtime.jobs import JobPlacement, JobRunner, WorkerContext
 from libero_data.seeding import episode_seeds
 
-__all__ = ["ReportJournal", "TaskResult", "evaluate_task", "failure_reason", "run_report"]
+__all__ = ["ReportJournal", "TaskResult", "evaluate_task", "failure_reason", "read_report", "run_report"]
 
 log = logging.getLogger(__name__)
 
@@ -106,7 +107,8 @@ def evaluate_task(
 
 
 class ReportJournal:
-    """``expert_report.jsonl``: a settings header, then one line per finished task.
+    """``expert_report.jsonl``: a header (the settings, and the machine that measured them), then
+    one line per finished task.
 
     Each line is written and synced as its task finishes, so an interrupted report keeps
     every finished task; running the same command again measures only the rest.
@@ -114,40 +116,55 @@ class ReportJournal:
 
     NAME = "expert_report.jsonl"
 
-    def __init__(self, out_dir: str | Path, settings: dict[str, object], *, fresh: bool = False) -> None:
+    def __init__(
+        self, out_dir: str | Path, settings: dict[str, object], *, fresh: bool = False, machine: str = ""
+    ) -> None:
         self.journal = Journal(Path(out_dir) / self.NAME)
         self.path = self.journal.path
         self.settings = settings
+        #: The first line: ``settings`` and, where given, ``machine`` (how the tables describe the
+        #: numeric path the rows were measured on).
+        self.header: dict[str, Any] = {"settings": settings, **({"machine": machine} if machine else {})}
         self.done: dict[str, TaskResult] = {}
         if self.journal.exists() and not fresh:
             self._load()
         else:
-            self.journal.start({"settings": settings})
+            self.journal.start(self.header)
 
     def _load(self) -> None:
-        lines = self.journal.read()
-        header = lines[0].get("settings") if lines and isinstance(lines[0], dict) else None
-        if not isinstance(header, dict):
-            raise FolderError(f"{self.path} is not an expert report journal; start over with a fresh report")
-        changed = changed_keys(header, self.settings)
+        self.header, self.done = read_report(self.path)
+        changed = changed_keys(self.header["settings"], self.settings)
         if changed:
             raise SettingsChanged(
                 f"{self.path} was measured with different settings ({', '.join(changed)}); "
                 "start a fresh report or use another output folder",
                 changed=changed,
             )
-        for number, row in enumerate(lines[1:], 2):
-            try:
-                ref = row.pop("ref")
-                self.done[ref] = TaskResult(**row)
-            except (AttributeError, KeyError, TypeError):
-                raise FolderError(
-                    f"{self.path}, entry {number} is not a measured task; start over with a fresh report"
-                ) from None
 
     def add(self, ref: str, result: TaskResult) -> None:
         self.journal.append({"ref": ref, **asdict(result)})
         self.done[ref] = result
+
+
+def read_report(path: str | Path) -> tuple[dict[str, Any], dict[str, TaskResult]]:
+    """An expert report's journal: its header and its measured tasks by reference, in order."""
+    journal = Journal(Path(path))
+    if not journal.exists():
+        raise MissingFileError(f"expert report journal {path} does not exist")
+    lines = journal.read()
+    header = lines[0] if lines and isinstance(lines[0], dict) else None
+    if header is None or not isinstance(header.get("settings"), dict):
+        raise FolderError(f"{path} is not an expert report journal; start over with a fresh report")
+    done: dict[str, TaskResult] = {}
+    for number, row in enumerate(lines[1:], 2):
+        try:
+            ref = row.pop("ref")
+            done[ref] = TaskResult(**row)
+        except (AttributeError, KeyError, TypeError):
+            raise FolderError(
+                f"{path}, entry {number} is not a measured task; start over with a fresh report"
+            ) from None
+    return header, done
 
 
 def failure_reason(text: str | None) -> str:

@@ -1,10 +1,13 @@
-"""What a generated dataset says about itself: ``meta/libero.json`` and its card (``README.md``).
+"""What a generated dataset says about itself: ``meta/libero.json``, its card (``README.md``) and
+the card's length plot.
 
-Both are derived from the request, the finished shards and the suite: per task its goal, the
-episodes kept and the attempts; the settings, versions, expert codes, and the machines and
-renderers that made the episodes; for a generated suite, the generator's settings. What the
-demonstrations are (the summary, where they started, the card's sections and the settings rows
-of their own) comes from their source (:mod:`~libero_data.pipeline.sources`).
+All are derived from the request, the finished slots and shards and the suite: per task its goal,
+the episodes kept, the attempts and the successes within its standard step limit; the episodes'
+lengths against it and the length bound with what it cost (:mod:`~libero_data.pipeline.length_card`);
+the settings, versions, expert codes, and the machines and renderers that made the episodes; for a
+generated suite, the generator's settings. What the demonstrations are (the summary, where they
+started, the card's sections and the settings rows of their own) comes from their source
+(:mod:`~libero_data.pipeline.sources`).
 """
 
 from __future__ import annotations
@@ -12,27 +15,42 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from libero_data.pipeline.episodes import EpisodeDone
+from libero_data.pipeline.length_card import (
+    LENGTH_PLOT,
+    TaskLengths,
+    bound_words,
+    dataset_lengths,
+    dataset_note,
+    lengths_card,
+    report_lengths,
+    report_note,
+)
 from libero_data.pipeline.request import GenerateRequest, Slot
 from libero_data.pipeline.sources.scripted import start_note, start_words
+
+if TYPE_CHECKING:
+    from libero_data.cards.expert_files import Measured
 
 
 def describe_dataset(
     request: GenerateRequest,
     slots: list[Slot],
-    status: Mapping[str, tuple[bool, int]],
+    status: Mapping[str, EpisodeDone],
     shards: list[Path],
     width: int,
     *,
     command: str,
     complete: bool,
-) -> tuple[dict[str, Any], dict[str, str], str]:
-    """The dataset's metadata, its tasks' BDDL texts and its card."""
+) -> tuple[dict[str, Any], dict[str, str], str, dict[str, bytes]]:
+    """The dataset's metadata, its tasks' BDDL texts, its card and the card's files (the length
+    plot), by path within the dataset."""
     from libero_data import provenance
     from libero_data.cards import render_card
     from libero_data.cards.card import FAST_IMAGE_NOTE, FULL_IMAGE_NOTE
-    from libero_data.cards.expert_table import length_line
+    from libero_data.cards.lengths import length_line
     from libero_data.pipeline.sources import source_of
     from libero_data.runtime.versions import versions
     from libero_data.tasks import get_suite
@@ -44,16 +62,14 @@ def describe_dataset(
     machines, renderers = provenance.machines(infos), provenance.renderers(infos)
     render = provenance.render_summary(infos, request.render_quality)
     keys_in = {p.name for p in shards}
+    lengths = dataset_lengths(request, suite, slots, status, infos)
     tasks = []
     bddl = {}
-    for position, index in enumerate(request.tasks):
-        task = suite.task(index)
-        mine = [s for s in slots if s.position == position and s.key in status]
-        attempts = sum(status[s.key][1] for s in mine)
-        successes = sum(1 for s in mine if status[s.key][0])
-        episodes = sum(1 for s in mine if s.key in keys_in)
-        tasks.append(_card_task(task, episodes, attempts, successes))
-        bddl[task.name] = task.bddl_path.read_text()
+    for position, row in enumerate(lengths):
+        episodes = sum(1 for s in slots if s.position == position and s.key in keys_in)
+        tasks.append(_card_task(row.task, episodes, row.attempts, row.successes, row.within))
+        bddl[row.task.name] = row.task.bddl_path.read_text()
+    section, plot = lengths_card(suite, lengths, dataset_note(request, lengths), LENGTH_PLOT)
     vers = versions()
     settings = {
         "suite": suite.name,
@@ -65,6 +81,7 @@ def describe_dataset(
         "feature names": request.features,
         "render quality": provenance.render_line(render),
         "attempts per episode (at most)": str(request.max_attempts),
+        "length bound (steps)": bound_words(request, lengths),
         "fps": "20",
         "episode length (steps)": length_line([int(info["length"]) for info in infos], suite.name),
         "complete": "yes" if complete else "no (generation still running or interrupted)",
@@ -90,6 +107,7 @@ def describe_dataset(
         sim_state_width=width,
         settings=part.apply(settings),
         start_note=part.start_note,
+        lengths=section,
         camera_keys=request.layout.camera_keys,
         image_note=FAST_IMAGE_NOTE if request.render_quality == "fast" else FULL_IMAGE_NOTE,
         **part.sections,
@@ -103,12 +121,12 @@ def describe_dataset(
         "render": render,
         "complete": complete,
         "sim_state_width": width,
-        "tasks": [_task_meta(t) for t in tasks],
+        "tasks": [_task_meta(t, row) for t, row in zip(tasks, lengths, strict=True)],
     }
-    return meta, bddl, card
+    return meta, bddl, card, ({LENGTH_PLOT: plot} if plot is not None else {})
 
 
-def _task_meta(t: Any) -> dict[str, Any]:
+def _task_meta(t: Any, lengths: TaskLengths) -> dict[str, Any]:
     return {
         "index": t.index,
         "name": t.name,
@@ -117,15 +135,26 @@ def _task_meta(t: Any) -> dict[str, Any]:
         "episodes": t.episodes,
         "attempts": t.attempts,
         "successes": t.successes,
+        "standard_limit": lengths.limit,
+        "within_standard_limit": lengths.within,
+        "length_bound": lengths.bound,
+        "attempts_stopped_at_bound": lengths.too_long,
     }
 
 
-def _card_task(task: Any, episodes: int, attempts: int, successes: int) -> Any:
+def _card_task(task: Any, episodes: int, attempts: int, successes: int, within: int | None) -> Any:
     from libero_data.bddl import formula_text
     from libero_data.cards import CardTask
 
     return CardTask(
-        task.index, task.name, task.language, formula_text(task.problem.goal), episodes, attempts, successes
+        task.index,
+        task.name,
+        task.language,
+        formula_text(task.problem.goal),
+        episodes,
+        attempts,
+        successes,
+        within,
     )
 
 
@@ -161,18 +190,22 @@ def _generator_settings(manifest: Mapping[str, Any], kept: int) -> dict[str, str
 
 def suite_card(
     suite_name: str,
-    rates: dict[str, tuple[int, int]],
+    measured: Mapping[str, Measured],
     *,
     episodes_per_task: int = 50,
     image_size: int = 128,
     seed: int = 0,
     measured_by: dict[str, str] | None = None,
-) -> str:
-    """The card ``generate --suite`` writes with these settings, before any data exists.
+    lengths_image: str = "lengths.png",
+) -> tuple[str, bytes | None]:
+    """The card ``generate --suite`` writes with these settings, before any data exists, and its
+    length plot (None where the report recorded no lengths), which the card shows from
+    ``lengths_image`` (a path relative to the card).
 
-    ``rates`` maps task names to (successes, attempts) of the expert (e.g. from
-    ``libero-data expert-report``); frame counts are only known once generated.
-    ``measured_by`` (the report's expert code, init states, seed) is stated beside them.
+    ``measured`` maps task names to what the expert report measured of them (successes, those
+    within the standard limit, the lengths: ``libero_data.cards.expert_files.read_measured``);
+    frame counts are only known once generated. ``measured_by`` (the report's expert code, init
+    states, seed) is stated beside them.
     """
     from libero_data.cards import render_card
     from libero_data.pipeline.request import sim_state_width
@@ -188,10 +221,14 @@ def suite_card(
         seed=seed,
         repo_id=f"libero-data/{suite.name.replace('/', '-')}",  # plus/libero_object: one name
     )
+    lengths = report_lengths(request, suite, measured)
     tasks = []
-    for task in suite.tasks:
-        successes, attempts = rates.get(task.name, (0, 0))
-        tasks.append(_card_task(task, episodes_per_task, attempts, successes))
+    for row in lengths:
+        m = measured.get(row.task.name)
+        tasks.append(
+            _card_task(row.task, episodes_per_task, row.attempts, m.successes if m else 0, row.within)
+        )
+    section, plot = lengths_card(suite, lengths, report_note(lengths), lengths_image)
     settings = {
         "suite": suite.name,
         "episodes per task": str(episodes_per_task),
@@ -201,12 +238,13 @@ def suite_card(
         "render quality": "full: LIBERO's own renderer, pixel for pixel (`--render-quality fast` draws "
         "simplified visual meshes and states their measured difference)",
         "attempts per episode (at most)": str(request.max_attempts),
+        "length bound (steps)": bound_words(request, lengths),
         "fps": "20",
         **{f"version: {k}": v for k, v in versions().items()},
         **{f"expert report: {k}": v for k, v in (measured_by or {}).items()},
     }
     by = ", ".join(f"{k} {v}" for k, v in (measured_by or {}).items())
-    return render_card(
+    card = render_card(
         title=f"libero-data · {suite.name}",
         summary=(
             f"Scripted demonstrations of the LIBERO suite `{suite.name}` in LeRobot v3 format. This card was "
@@ -225,8 +263,10 @@ def suite_card(
         sim_state_width=sim_state_width(request),
         settings=settings,
         start_note=start_note(request.starts, episodes_per_task, request.arm_noise),
+        lengths=section,
         expert_note=(
             "Here: successes over the first attempts from the stored init states, as measured by the expert report"
             + (f" ({by})." if by else ".")
         ),
     )
+    return card, plot

@@ -61,6 +61,14 @@ class EpisodeDone:
     k: int
     success: bool
     attempts: int
+    too_long: int = 0  # attempts stopped at the length bound (EpisodeRecord.too_long)
+    length: int = 0  # the kept episode's steps (0: given up)
+
+
+def done_event(slot: Slot, record: EpisodeRecord) -> EpisodeDone:
+    """What is reported of a slot once its record (and a kept episode's shard) is on disk."""
+    length = len(record.actions) if record.success and record.actions is not None else 0
+    return EpisodeDone(slot.key, slot.k, record.success, record.attempts, record.too_long, length)
 
 
 def expert_env(
@@ -70,6 +78,7 @@ def expert_env(
     cameras: tuple[str, ...] = CAMERAS,
     render_quality: str = "full",
     arm_noise: float = ARM_INIT_NOISE,
+    max_steps: int | None = None,
 ) -> tuple[Any, Any]:
     """(env, expert) of ``task`` at ``image_size`` from the worker's cache, built when it changed.
 
@@ -77,6 +86,8 @@ def expert_env(
     ``set_state`` put everything that shapes a trajectory in a canonical form), so keeping one
     between jobs changes no result; and a rebuild is not free: the first one in a process
     leaves resident memory behind that closing the old environment does not give back.
+    ``max_steps`` stops the expert's attempts there (the length bound; None: the expert's own
+    budget); the actions before it are the same either way.
     """
     from libero_data.experts.expert import Expert, ExpertConfig
     from libero_data.sim import EnvConfig, LiberoEnv
@@ -86,9 +97,10 @@ def expert_env(
             image_size=image_size, cameras=cameras, render_quality=render_quality, arm_noise=arm_noise
         )
         env = LiberoEnv(task, config)
-        return env, Expert(env, ExpertConfig())
+        expert = ExpertConfig() if max_steps is None else ExpertConfig(max_steps=max_steps)
+        return env, Expert(env, expert)
 
-    key = (str(task.suite), int(task.index), int(image_size), cameras, render_quality, arm_noise)
+    key = (str(task.suite), int(task.index), int(image_size), cameras, render_quality, arm_noise, max_steps)
     return cache.get("env", key, build, close=lambda pair: pair[0].close())
 
 
@@ -133,8 +145,15 @@ def _final_state(env: Any, record: EpisodeRecord) -> np.ndarray:
     return np.asarray(env.get_state())
 
 
-def _env_settings(request: GenerateRequest) -> tuple[int, tuple[str, ...], str, float]:
-    return request.image_size, tuple(request.cameras), request.render_quality, request.arm_noise
+def env_settings(request: GenerateRequest, task: Any) -> tuple[int, tuple[str, ...], str, float, int | None]:
+    """:func:`expert_env`'s settings for ``task`` of ``request`` (the search's and the render's)."""
+    return (
+        request.image_size,
+        tuple(request.cameras),
+        request.render_quality,
+        request.arm_noise,
+        request.length_bound(task),
+    )
 
 
 def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
@@ -170,7 +189,7 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
             release_free_memory()  # what the episode's encoders and buffers freed
             ctx.ship(shard_path(slot.key))
         ctx.ship(search_path(slot.key))  # last: its presence marks the slot as done
-        event = EpisodeDone(slot.key, slot.k, record.success, record.attempts)
+        event = done_event(slot, record)
         done.append(event)
         ctx.report(event)
 
@@ -191,7 +210,7 @@ def make_episodes(ctx: WorkerContext, job: EpisodeJob) -> list[EpisodeDone]:
                 record.save(search)
             finishing = None
             if record.success and not shard.is_dir():
-                env, _expert = expert_env(ctx.cache, task, *_env_settings(request))
+                env, _expert = expert_env(ctx.cache, task, *env_settings(request, task))
                 source.set_scene(env, record)
                 states, actions = record.trajectory()
                 finish = render_shard(

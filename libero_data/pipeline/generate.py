@@ -24,14 +24,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from libero_data.errors import FolderError, SettingsChanged
-from libero_data.pipeline.episodes import EpisodeDone, EpisodeJob, make_episodes, search_path, shard_path
+from libero_data.pipeline.episodes import (
+    EpisodeDone,
+    EpisodeJob,
+    done_event,
+    make_episodes,
+    search_path,
+    shard_path,
+)
 from libero_data.pipeline.request import (
     GenerateRequest,
     resolve_request,
     sim_state_width,
     slots_of,
 )
-from libero_data.runtime.files import load_record, write_json
+from libero_data.pipeline.sources import EpisodeRecord
+from libero_data.runtime.files import write_json
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys
 from libero_data.runtime.jobs import JobPlacement, JobRunner
 
@@ -95,7 +103,7 @@ class _Run:
         self.request, self.out, self.width, self.command = request, out, width, command
         self.work = out / DATASET_WORK
         self.slots = slots_of(request)
-        self.status: dict[str, tuple[bool, int]] = {}
+        self.status: dict[str, EpisodeDone] = {}
         self.progress = Progress(total=len(self.slots))
         self.clock = PublishClock(publish_every)
         self.on_progress = on_progress
@@ -105,12 +113,12 @@ class _Run:
         for slot in self.slots:
             search = self.work / search_path(slot.key)
             if search.is_file():
-                record = load_record(search)
-                if not record["success"] or (self.work / shard_path(slot.key)).is_dir():
-                    self.note(EpisodeDone(slot.key, slot.k, bool(record["success"]), int(record["attempts"])))
+                record = EpisodeRecord.load(search)
+                if not record.success or (self.work / shard_path(slot.key)).is_dir():
+                    self.note(done_event(slot, record))
 
     def note(self, done: EpisodeDone) -> None:
-        self.status[done.key] = (done.success, done.attempts)
+        self.status[done.key] = done
         self.progress.done += done.success
         self.progress.failed += not done.success
         self.progress.attempts += done.attempts
@@ -143,7 +151,7 @@ class _Run:
     def complete(self) -> bool:
         """Every slot is done (kept or given up) and the dataset says so."""
         return all(s.key in self.status for s in self.slots) and published_count(self.out) == sum(
-            1 for ok, _ in self.status.values() if ok
+            1 for done in self.status.values() if done.success
         )
 
     def maybe_publish(self, force: bool = False) -> None:
@@ -167,7 +175,7 @@ class _Run:
         for slot in self.slots:
             if slot.key not in self.status:
                 break
-            if self.status[slot.key][0]:
+            if self.status[slot.key].success:
                 shards.append(self.work / shard_path(slot.key))
         complete = all(s.key in self.status for s in self.slots)
         if not shards:
@@ -177,7 +185,7 @@ class _Run:
             current = json.loads(meta_file.read_text())
             if published_count(self.out) == len(shards) and bool(current.get("complete")) == complete:
                 return len(shards)
-        meta, bddl, card = describe_dataset(
+        meta, bddl, card, files = describe_dataset(
             self.request, self.slots, self.status, shards, self.width, command=self.command, complete=complete
         )
         # Named by its content, so the same request publishes the same bytes (the card carries the id).
@@ -193,6 +201,7 @@ class _Run:
             dataset_meta=meta,
             bddl=bddl,
             card=card,
+            files=files,
         )
         publish(snapshot, self.out, self.work / "publish.json")
         return len(shards)

@@ -91,6 +91,7 @@ def plan_import(
         imported=tuple(str(by_task[i].path) for i in tasks),
         import_tolerance=float(tolerance),
         drop_noops=bool(drop_noops),
+        max_length=None,  # human demonstrations are kept as long as they are; the card counts those over the limit
     )
     return request, by_task
 

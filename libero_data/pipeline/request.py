@@ -20,6 +20,11 @@ from libero_data.sim.env import check_render_quality
 #: LIBERO's stored init states per task; with ``starts="stored"``, episode k < 50 of a task
 #: starts from init state k.
 STORED_INITS = 50
+#: ``max_length``'s word for each task's standard limit (:func:`libero_data.tasks.horizons.standard_limit`).
+STANDARD = "standard"
+#: ``max_length``'s word for no bound, on a command line.
+NO_BOUND = "none"
+
 #: Where demonstrations start: placements drawn by LIBERO's sampler from the demonstration seed
 #: stream (``sampler``: evaluation never uses them), or LIBERO's stored init states (``stored``:
 #: the ones the paper's evaluation uses) and the sampler beyond the 50th episode.
@@ -41,6 +46,7 @@ class GenerateRequest(Config):
         "imported": [],
         "import_tolerance": 0.0,
         "drop_noops": False,
+        "max_length": None,  # every successful attempt was kept, however long
     }
 
     suite: str
@@ -62,9 +68,14 @@ class GenerateRequest(Config):
     imported: tuple[str, ...] = ()
     import_tolerance: float = 0.0
     drop_noops: bool = False
+    #: The longest episode kept, in control steps: a number, ``"standard"`` (each task's standard
+    #: limit) or None (no bound). A searched attempt still going at the bound is stopped there and
+    #: counts as failed; sources that do not search keep their episodes (their cards count those over it).
+    max_length: int | str | None = STANDARD
 
     def __post_init__(self) -> None:
         check_arm_noise(self.arm_noise)
+        check_max_length(self.max_length)
         if self.episodes_per_task < 1:
             raise InputError(
                 f"episodes per task must be at least 1, got {self.episodes_per_task}",
@@ -88,11 +99,41 @@ class GenerateRequest(Config):
         """What the dataset stores of each frame's images."""
         return FeatureLayout(self.features, tuple(self.cameras), self.image_size)
 
+    def length_bound(self, task: Any) -> int | None:
+        """The longest episode of ``task`` (of this request's suite) kept, in steps; None: no bound."""
+        from libero_data.tasks.horizons import standard_limit
+
+        if self.max_length == STANDARD:
+            return standard_limit(self.suite, task.name)
+        return None if self.max_length is None else int(self.max_length)
+
     def stored_start(self, k: int, stored: int) -> int | None:
         """The stored init state episode ``k`` starts from, or None (LIBERO's sampler)."""
         if self.starts == "stored" and k < min(STORED_INITS, stored):
             return k
         return None
+
+
+def check_max_length(value: object) -> None:
+    """:class:`InputError` naming ``max_length`` unless ``value`` is a length bound: a positive
+    number of steps, ``"standard"`` or None."""
+    if value is None or value == STANDARD:
+        return
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise InputError(
+            f"the length bound is a positive number of steps, {STANDARD!r} or {NO_BOUND!r}, got {value!r}",
+            field="max_length",
+        )
+
+
+def parse_max_length(text: str) -> int | str | None:
+    """A length bound as a command line writes it: digits, ``standard`` or ``none``."""
+    word = text.strip().lower()
+    if word == NO_BOUND:
+        return None
+    value: int | str = int(word) if word.isdigit() else word
+    check_max_length(value)
+    return value
 
 
 @dataclass(frozen=True)
@@ -122,6 +163,7 @@ def resolve_request(
     cameras: tuple[str, ...] = CAMERAS,
     render_quality: str = "full",
     arm_noise: float = ARM_INIT_NOISE,
+    max_length: int | str | None = STANDARD,
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
     from libero_data.tasks import get_suite
@@ -149,6 +191,7 @@ def resolve_request(
         cameras=tuple(cameras),
         render_quality=render_quality,
         arm_noise=float(arm_noise),
+        max_length=max_length,
     )
 
 

@@ -13,6 +13,7 @@ import io
 import json
 import os
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +35,10 @@ def build_snapshot(
     dataset_meta: dict[str, Any],
     bddl: dict[str, str],
     card: str,
+    files: Mapping[str, bytes] | None = None,
 ) -> list[dict[str, Any]]:
-    """Write a snapshot of ``shards`` (in order) into ``out``; returns the episodes' metadata."""
+    """Write a snapshot of ``shards`` (in order) into ``out``; returns the episodes' metadata.
+    ``files`` (the card's pictures) are written by their paths inside ``meta/``."""
     from lerobot.datasets.aggregate import aggregate_datasets
 
     if out.exists():
@@ -69,6 +72,11 @@ def build_snapshot(
     (meta / "bddl").mkdir()
     for name, text in bddl.items():
         (meta / "bddl" / f"{name}.bddl").write_text(text)
+    for relative, data in (files or {}).items():
+        path = out / relative
+        if path.parent != meta:  # only meta/ is published whole with the card
+            raise ValueError(f"a dataset's card files belong in meta/, not {relative}")
+        path.write_bytes(data)
     data_bytes = sum(p.stat().st_size for p in (out / "data").rglob("*.parquet"))
     (out / "README.md").write_text(with_data_size(card, data_bytes))
     stamp(out, snapshot_id)

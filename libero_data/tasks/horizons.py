@@ -18,13 +18,23 @@ libero_90       373                      400
 A step limit is written as an integer (the same for every task) or ``"suite"``: each task gets
 its suite's limit from this table; a task outside the five suites (a procedural one) gets
 :data:`OTHER_LIMIT`, LeRobot's default for a suite it does not know.
+
+A task's *standard limit* (:func:`standard_limit`) is openpi's limit of the LIBERO suite it comes
+from (:func:`base_suite`): what the field's evaluations give a policy, so the longest
+demonstration a policy copying its data's pace can afford. The expert report and every card count
+success within it, and ``generate`` keeps no longer episode by default.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from libero_data.errors import InputError
+
+if TYPE_CHECKING:
+    from libero_data.tasks.task import Suite
 
 __all__ = [
     "HUMAN_LONGEST",
@@ -33,10 +43,12 @@ __all__ = [
     "SUITE",
     "SUITE_LIMITS",
     "StepLimit",
+    "base_suite",
     "check_step_limit",
     "is_step_limit",
     "limit_text",
     "parse_step_limit",
+    "standard_limit",
     "step_limit",
 ]
 
@@ -104,15 +116,73 @@ def parse_step_limit(text: str, *, field: str = "max_steps") -> StepLimit:
 def step_limit(limit: StepLimit, suite: str, limits: Mapping[str, int] = SUITE_LIMITS) -> int:
     """The steps a rollout of a task of ``suite`` may take under ``limit``: a number, or the
     suite's entry in ``limits`` (a LIBERO-PRO or LIBERO-Plus suite takes its base suite's)."""
-    from libero_data.tasks.plus import plus_base
-    from libero_data.tasks.suites import pro_suite
-
     limit = check_step_limit(limit)
     if isinstance(limit, int):
         return limit
-    pro = pro_suite(suite)
-    base = pro.base if pro is not None else plus_base(suite) or suite
-    return limits.get(base, OTHER_LIMIT)
+    return limits.get(base_suite(suite) or suite, OTHER_LIMIT)
+
+
+#: How many suite folders of variants of variants :func:`base_suite` follows (a loop ends there).
+_MOST_HOPS = 8
+
+
+def base_suite(suite: str | Suite, task: str | None = None) -> str | None:
+    """The LIBERO suite (one of the five) whose limits a task of ``suite`` takes, or None.
+
+    One of the five suites is its own; a LIBERO-PRO suite (``libero_goal_swap``) and a LIBERO-Plus
+    suite (``plus/libero_goal``) take the suite they perturb; ``libero_100`` the part that holds the
+    task named ``task``; a suite folder of robustness variants (its ``suite.json`` names the suite
+    it was made from: ``variants_of``) takes that suite's base. A procedural suite (new tasks in
+    LIBERO's scenes), a folder without a manifest and any other name have none.
+    """
+    from libero_data.tasks.task import Suite
+
+    folder = suite.path if isinstance(suite, Suite) else None
+    name = suite.name if isinstance(suite, Suite) else str(suite)
+    for _ in range(_MOST_HOPS):
+        if folder is None:
+            found = _named_base(name, task)
+            if found is not None or not Path(name).is_dir():
+                return found
+            folder = Path(name)
+        source = _variants_of(folder)
+        if source is None:
+            return None
+        name, folder = source, None
+    return None
+
+
+def _named_base(name: str, task: str | None) -> str | None:
+    """The base of a suite known by name (the five, LIBERO-PRO's, LIBERO-Plus's, libero_100's parts)."""
+    from libero_data.tasks.plus import plus_base
+    from libero_data.tasks.suites import composite_part, pro_suite
+
+    if name in OPENPI_LIMITS:
+        return name
+    pro = pro_suite(name)
+    if pro is not None:
+        return pro.base
+    return plus_base(name) or (composite_part(name, task) if task is not None else None)
+
+
+def _variants_of(folder: Path) -> str | None:
+    """The suite a suite folder's variants were made from (its manifest's generator settings)."""
+    from libero_data.runtime.files import read_json
+    from libero_data.tasks.task import SUITE_MANIFEST
+
+    manifest = Path(folder) / SUITE_MANIFEST
+    if not manifest.is_file():
+        return None
+    generator = read_json(manifest, required=("tasks",)).get("generator") or {}
+    source = (generator.get("settings") or {}).get("variants_of")
+    return str(source) if source else None  # none: procedural tasks, made in no suite
+
+
+def standard_limit(suite: str | Suite, task: str | None = None) -> int:
+    """A task's standard step limit: openpi's limit of its base suite (:func:`base_suite`),
+    counted after the 10 waiting steps; :data:`OTHER_LIMIT` for a task without one."""
+    base = base_suite(suite, task)
+    return OPENPI_LIMITS[base] if base is not None else OTHER_LIMIT
 
 
 def limit_text(limit: object) -> str:

@@ -139,6 +139,16 @@ def pro_suite(name: str) -> ProSuite | None:
     return None
 
 
+def composite_part(name: str, task_name: str) -> str | None:
+    """The suite of a composite suite (``libero_100``: libero_90 + libero_10) that holds the task
+    named ``task_name``; None for any other suite or task."""
+    tables = _tables()
+    for part in tables["composite"].get(name, ()):
+        if task_name in tables["suites"][part]:
+            return str(part)
+    return None
+
+
 def pro_bases() -> tuple[str, ...]:
     """The LIBERO suites LIBERO-PRO perturbs."""
     return tuple(_tables()["pro"]["bases"])

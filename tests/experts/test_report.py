@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -148,7 +149,7 @@ def test_the_fingerprint_ignores_comments_and_docstrings(tmp_path) -> None:
 
 
 def test_lengths_are_stated_per_suite_beside_the_human_longest(tmp_path: Path) -> None:
-    from libero_data.cards.expert_table import HUMAN_LONGEST, write_report
+    from libero_data.cards.expert_table import HUMAN_LONGEST, LENGTH_PLOT, write_report
 
     lengths = [[100, 120], [140, 300]]
     phases = [{"pick": 100, "place_on": 100, "wait for goal": 20}, {"pick": 200, "failed attempts": 240}]
@@ -157,16 +158,101 @@ def test_lengths_are_stated_per_suite_beside_the_human_longest(tmp_path: Path) -
         for i in range(2)
     ]
     csv_path, md = write_report(rows, tmp_path)
-    # 4 episodes: mean 165, median 130, 95th percentile 276 (linear), longest 300; LIBERO's humans: 193
+    # 4 episodes: mean 165, median 130, 95th percentile 276 (linear), longest 300; 3 within
+    # libero_spatial's standard limit of 220; LIBERO's humans: 193
     assert HUMAN_LONGEST["libero_spatial"] == 193
-    row = "| libero_spatial | 4 | 165 | 130 | 276 | 300 | 193 | pick 45%; failed attempts 36%; place_on 15%; wait for goal 3% |"
+    row = (
+        "| libero_spatial | 4 | 165 | 130 | 276 | 300 | 3/4 (75%) | 220 | 193 "
+        "| pick 45%; failed attempts 36%; place_on 15%; wait for goal 3% |"
+    )
     assert row in md.read_text()
+    assert f"]({LENGTH_PLOT})" in md.read_text() and (tmp_path / LENGTH_PLOT).is_file()
     table = list(csv.DictReader(csv_path.open()))
     assert [(r["median_length"], r["longest_length"]) for r in table] == [("110", "120"), ("220", "300")]
     assert table[1]["phases"] == "failed attempts 55%; pick 45%"
-    # Reports measured before lengths were recorded read as they are, without the table.
+    # Reports measured before lengths were recorded read as they are, without the table or the plot.
     _, old = write_report([result(0)], tmp_path / "old")
-    assert "LIBERO human longest" not in old.read_text()
+    assert "LIBERO human longest" not in old.read_text() and not (tmp_path / "old" / LENGTH_PLOT).exists()
+
+
+def _within_rows() -> list[TaskResult]:
+    """Hand-made results of every kind of suite, with the lengths of their successful episodes."""
+    return [
+        # libero_goal: standard limit 300
+        TaskResult("libero_goal", 0, "task_a", 4, 3, 200.0, 1.0, {"x": 1}, [100, 300, 301]),
+        TaskResult("libero_goal", 1, "task_b", 4, 4, 200.0, 1.0, {}, [299, 500, 120, 130]),
+        # LIBERO-PRO's swap of libero_spatial: its base's 220
+        TaskResult("libero_spatial_swap", 0, "task_c", 2, 2, 200.0, 1.0, {}, [220, 221]),
+        # LIBERO-Plus's libero_10: 520
+        TaskResult("plus/libero_10", 7, "task_d", 3, 2, 200.0, 1.0, {"y": 1}, [519, 600]),
+        # a procedural suite: no base suite, LeRobot's default 500
+        TaskResult("my_tasks", 0, "task_e", 2, 2, 200.0, 1.0, {}, [499, 501]),
+        # measured before lengths were recorded: not known
+        TaskResult("libero_object", 0, "task_f", 2, 2, 200.0, 1.0, {}),
+    ]
+
+
+def test_success_within_the_standard_limit_is_counted_per_task_and_suite(tmp_path: Path) -> None:
+    from libero_data.cards.expert_table import summarise, task_limit, task_within, write_report
+
+    rows = _within_rows()
+    assert [task_limit(r) for r in rows] == [300, 300, 220, 520, 500, 280]
+    assert [task_within(r) for r in rows] == [2, 3, 1, 1, 1, None]
+    summary = summarise(rows)
+    goal = summary["libero_goal"]
+    assert (goal["within"], goal["episodes"], goal["limit"]) == (5, 8, 300)
+    assert math.isnan(summary["libero_object"]["within"])
+    csv_path, md = write_report(rows, tmp_path)
+    text = md.read_text()
+    # 5 of 8 within the limit: 62.5%, Wilson 30.6%–86.3%
+    assert "| 75% ✓ | 62.5% (5/8, 30.6%–86.3%) | 300 |" in text
+    assert "| no target | 100% ✓ | 50.0% (1/2, 9.5%–90.5%) | 220 |" in text
+    assert "| 100% ✓ | 50.0% (1/2, 9.5%–90.5%) | 500 (no base suite) |" in text
+    assert "| libero_object | 1 | 2 | 100.0% (34.2%–100.0%) | 98% | met | 100% ✓ | – | 280 |" in text
+    assert "| libero_goal/1 | task b | 4/4 | 3/4 | 200 |  |" in text
+    assert "| libero_object/0 | task f | 2/2 | – | 200 |  |" in text
+    assert "| plus/libero_10 | 2 | 560 | 560 | 596 | 600 | 1/2 (50%) | 520 | 505 |" in text
+    table = {r["name"]: r for r in csv.DictReader(csv_path.open())}
+    assert [(table[n]["limit"], table[n]["within_limit"]) for n in ("task_a", "task_e", "task_f")] == [
+        ("300", "2"),
+        ("500", "1"),
+        ("280", ""),
+    ]
+    assert table["task_b"]["within_limit_rate"] == "0.750"
+
+
+def test_the_length_plot_is_the_same_bytes_each_time(tmp_path: Path) -> None:
+    from libero_data.cards.expert_table import LENGTH_PLOT, write_report
+
+    rows = _within_rows()
+    write_report(rows, tmp_path / "a")
+    write_report([rows[1], rows[0], *rows[2:]], tmp_path / "b")  # a suite's tasks by index, however finished
+    first, second = (tmp_path / "a" / LENGTH_PLOT).read_bytes(), (tmp_path / "b" / LENGTH_PLOT).read_bytes()
+    assert first.startswith(b"\x89PNG") and first == second
+    assert b"Software" not in first and b"matplotlib" not in first.lower()
+    assert (tmp_path / "a" / "expert_report.md").read_text() == (
+        tmp_path / "b" / "expert_report.md"
+    ).read_text()
+
+
+def test_the_tables_are_written_again_from_the_journal_alone(tmp_path: Path) -> None:
+    from libero_data.cards.expert_files import report_meta
+
+    settings = {"inits": 4, "seed": 0, "expert": "abc", "versions": {"mujoco": "3"}, "numeric_key": "k1"}
+    journal = ReportJournal(tmp_path, settings, machine="a CPU; its BLAS")
+    for r in _within_rows():
+        journal.add(f"{r.suite}/{r.index}", r)
+    meta = report_meta(journal.header, _within_rows(), 6)
+    assert meta["tasks measured"] == "6 of 6" and meta["numeric path k1"] == "a CPU; its BLAS"
+    assert meta["version mujoco"] == "3"
+    again = cli("expert-report", "--tables-only", "--out", str(tmp_path))
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert "libero_goal: 87.5% of 8" in again.stdout
+    assert "within the standard limit (300): 62.5% (5/8, 30.6%–86.3%)" in again.stdout
+    assert "- numeric path k1: a CPU; its BLAS" in (tmp_path / "expert_report.md").read_text()
+    missing = cli("expert-report", "--tables-only", "--out", str(tmp_path / "nowhere"))
+    assert missing.returncode == 2 and "Traceback" not in missing.stderr
+    assert "expert_report.jsonl does not exist" in missing.stderr
 
 
 def test_a_suite_without_a_target_is_said_to_have_none(tmp_path: Path) -> None:

@@ -189,3 +189,9 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
     card = (out / "README.md").read_text()
     assert "Human demonstrations of the LIBERO suite" in card and path.name in card
     assert ("no-op frames dropped" in card) == drop_noops and "Human demonstrations are not used" not in card
+    # Human demonstrations are kept as long as they are: no length bound, those over the limit counted.
+    from libero_data.tasks.horizons import standard_limit
+
+    over = sum(int(row["length"]) > standard_limit(task.suite) for row in rows)
+    assert "| length bound (steps) | none: episodes are kept however long they are |" in card
+    assert f"Episodes are kept however long they are: {over} of {len(rows)} episode" in card

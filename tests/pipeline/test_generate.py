@@ -242,3 +242,39 @@ def test_an_episode_is_reported_only_once_its_shard_is_on_disk(tiny_dataset: Pat
     for rel in ours:  # same episode rendered twice, through the background writer each time
         if rel.suffix in (".mp4", ".parquet"):
             assert (first / rel).read_bytes() == (second / rel).read_bytes(), rel
+
+
+def test_no_episode_the_card_calls_usable_exceeds_the_length_bound(tmp_path: Path) -> None:
+    """Two episodes of turning on the stove (about 95 steps: 88-127 over the 50 stored starts of
+    the expert report) under a 91-step bound: attempts longer than it are failed attempts; whatever
+    the search found, nothing kept is longer, and the card and metadata count what was stopped."""
+    from libero_data.pipeline.generate import generate
+    from libero_data.pipeline.request import resolve_request
+    from libero_data.pipeline.sources import EpisodeRecord
+
+    bound = 91
+    request = resolve_request(
+        "libero_goal", ["7"], episodes_per_task=2, image_size=32, seed=5, max_length=bound
+    ).replace(cameras=("agentview",))
+    out = tmp_path / "bounded"
+    progress = generate(request, out, keep_work=True)
+    records = [EpisodeRecord.load(p) for p in sorted((out / ".libero-data" / "search").glob("*.npz"))]
+    assert len(records) == 2 and progress.done + progress.failed == 2
+    rows = [json.loads(line) for line in (out / "meta" / "libero_episodes.jsonl").read_text().splitlines()]
+    assert len(rows) == sum(r.success for r in records) == progress.done
+    assert all(int(row["length"]) <= bound for row in rows)
+    meta = json.loads((out / "meta" / "libero.json").read_text())
+    assert meta["request"]["max_length"] == bound
+    (task,) = meta["tasks"]
+    stopped = sum(r.too_long for r in records)
+    assert task["length_bound"] == bound and task["attempts_stopped_at_bound"] == stopped
+    assert task["standard_limit"] == 300 and task["within_standard_limit"] == len(rows)
+    card = (out / "README.md").read_text()
+    assert f"| length bound (steps) | {bound} steps (`--max-length {bound}`) |" in card
+    assert (
+        f"What it cost: {stopped} of {sum(r.attempts for r in records)} attempts stopped at the bound" in card
+    )
+    if rows:
+        assert "![Episode lengths against the standard limit](meta/episode_lengths.png)" in card
+        assert (out / "meta" / "episode_lengths.png").read_bytes().startswith(b"\x89PNG")
+        assert f"{len(rows)} of {len(rows)} (100%) within the limit" in card

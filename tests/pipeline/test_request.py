@@ -78,3 +78,66 @@ def test_the_cli_default_arm_noise_is_the_stored_states() -> None:
 
     default = inspect.signature(generate_cmd).parameters["arm_noise"].default
     assert default == ARM_INIT_NOISE == GenerateRequest("libero_goal", (0,)).arm_noise
+
+
+def test_the_length_bound_is_each_tasks_standard_limit_unless_asked_otherwise() -> None:
+    from libero_data.pipeline.request import parse_max_length
+    from libero_data.tasks import get_suite
+
+    goal, spatial = get_suite("libero_goal").tasks[3], get_suite("libero_spatial").tasks[0]
+    default = GenerateRequest("libero_goal", (3,))
+    assert default.max_length == "standard" and default.length_bound(goal) == 300
+    assert GenerateRequest("libero_spatial", (0,)).length_bound(spatial) == 220
+    assert GenerateRequest("libero_goal", (3,), max_length=150).length_bound(goal) == 150
+    assert GenerateRequest("libero_goal", (3,), max_length=None).length_bound(goal) is None
+    assert [parse_max_length(t) for t in ("250", " standard ", "none", "None")] == [
+        250,
+        "standard",
+        None,
+        None,
+    ]
+    for bad in ("0", "-5", "forever", "2.5", ""):
+        with pytest.raises(InputError, match="the length bound is a positive number of steps") as error:
+            parse_max_length(bad)
+        assert error.value.field == "max_length"
+    for value in (0, True, "suite", 2.5):
+        with pytest.raises(InputError):
+            GenerateRequest("libero_goal", (3,), max_length=value)  # type: ignore[arg-type]
+
+
+def test_a_dataset_begun_before_the_length_bound_existed_continues_without_one(tmp_path: Path) -> None:
+    # Its episodes were kept however long; new ones must be too, or the dataset mixes two rules.
+    old = GenerateRequest("libero_goal", (0,)).to_dict()
+    del old["max_length"]
+    assert GenerateRequest.from_dict(old).max_length is None
+    (tmp_path / "request.json").write_text(json.dumps(old))
+    folder = WorkFolder(tmp_path, "dataset")
+    with pytest.raises(SettingsChanged, match=r"\(max_length\)"):
+        folder.claim(
+            GenerateRequest("libero_goal", (0,)).to_dict(), name="request.json", legacy=GenerateRequest.legacy
+        )
+    unbounded = GenerateRequest("libero_goal", (0,), max_length=None).to_dict()
+    assert folder.claim(unbounded, name="request.json", legacy=GenerateRequest.legacy) is not None
+
+
+def test_resuming_with_another_length_bound_is_refused(tmp_path: Path) -> None:
+    # What `generate` checks before it writes anything into a folder it began before.
+    from libero_data.pipeline.generate import check_output
+    from libero_data.runtime.folder import DATASET_WORK
+
+    begun = GenerateRequest("libero_goal", (0,), max_length=200)
+    WorkFolder(tmp_path / DATASET_WORK, "dataset").claim(begun.to_dict(), name="request.json")
+    for other in (150, "standard", None):
+        with pytest.raises(SettingsChanged, match=r"different settings \(max_length\)"):
+            check_output(begun.replace(max_length=other), tmp_path)
+    assert check_output(begun, tmp_path) is None  # the same bound continues
+
+
+def test_the_cli_default_length_bound_is_the_standard_limit() -> None:
+    import inspect
+
+    from libero_data.cli.generate import generate_cmd
+    from libero_data.pipeline.request import parse_max_length
+
+    default = inspect.signature(generate_cmd).parameters["max_length"].default
+    assert parse_max_length(default) == GenerateRequest("libero_goal", (0,)).max_length == "standard"

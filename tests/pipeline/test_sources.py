@@ -113,6 +113,57 @@ def test_a_record_keeps_the_saved_form_of_its_source(tmp_path: Path) -> None:
         given_up.trajectory()
 
 
+class _Attempt:
+    """What the search reads of an expert episode, made up: reached the goal or not, its steps."""
+
+    def __init__(self, success: bool, length: int) -> None:
+        self.success, self.length = success, length
+        self.failure = None if success else "missed the bowl"
+        self.actions, self.states = np.zeros((length, 7)), np.zeros((length, 3))
+        self.final_state, self.plan = np.zeros(3), ["pick bowl"]
+
+
+class _MadeUpExpert:
+    """An expert whose attempts are given: each call of ``run`` is the next one."""
+
+    def __init__(self, attempts: list[_Attempt]) -> None:
+        self.attempts = list(attempts)
+
+    def run(self, init: Any, *, reset_seed: int, seed: int) -> _Attempt:
+        return self.attempts.pop(0)
+
+
+def test_an_attempt_longer_than_the_bound_is_a_failed_attempt_and_the_search_goes_on() -> None:
+    from libero_data.pipeline.sources.scripted import search_slot
+    from libero_data.tasks import get_task
+
+    task = get_task("libero_goal/7")
+    request = GenerateRequest("libero_goal", (7,), max_length=250, max_attempts=4)
+    # stopped at the bound (the expert is built to stop there), reached the goal after it (the
+    # wait for the goal runs past it), failed short of it, then one within it: kept at attempt 4
+    tries = [_Attempt(False, 250), _Attempt(True, 260), _Attempt(False, 90), _Attempt(True, 250)]
+    record = search_slot(None, _MadeUpExpert(tries), task, request, Slot(0, 7, 0))  # type: ignore[arg-type]
+    assert (
+        record.success
+        and record.attempts == 4
+        and record.too_long == 2
+        and len(record.trajectory()[1]) == 250
+    )
+    assert record.failures == (
+        "longer than the 250-step length bound (stopped at step 250 without the goal)",
+        "longer than the 250-step length bound (reached the goal after 260 steps)",
+        "missed the bowl",
+    )
+    # without a bound the first success is kept, however long
+    unbounded = request.replace(max_length=None)
+    kept = search_slot(None, _MadeUpExpert(tries[1:]), task, unbounded, Slot(0, 7, 0))  # type: ignore[arg-type]
+    assert kept.success and kept.attempts == 1 and kept.too_long == 0 and len(kept.trajectory()[1]) == 260
+    # every attempt too long: given up, the count saved with the record
+    given_up = search_slot(None, _MadeUpExpert([_Attempt(True, 400)] * 4), task, request, Slot(0, 7, 1))  # type: ignore[arg-type]
+    assert not given_up.success and given_up.too_long == 4
+    assert EpisodeRecord.from_dict(given_up.to_dict()).too_long == 4
+
+
 @pytest.mark.sim
 def test_a_source_added_in_one_file_drives_generate(tmp_path: Path) -> None:
     from libero_data.pipeline.generate import generate

@@ -57,6 +57,8 @@ class EpisodeRecord:
     plan: tuple[str, ...] = ()
     fixtures: dict[str, Any] | None = None
     details: dict[str, Any] = field(default_factory=dict)
+    #: of the attempts, those stopped at the request's length bound (failed for being too long)
+    too_long: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """The saved form (the search record's keys; a given-up episode keeps only why)."""
@@ -65,6 +67,8 @@ class EpisodeRecord:
             "attempts": self.attempts,
             "failures": list(self.failures),
         }
+        if self.too_long:
+            data["too_long"] = self.too_long
         if self.success:
             data.update(
                 init_index=self.init_index,
@@ -104,6 +108,7 @@ class EpisodeRecord:
             plan=tuple(data.get("plan", ())),
             fixtures=data.get("fixtures"),
             details=dict(data.get("imported", {})),
+            too_long=int(data.get("too_long", 0)),
         )
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:

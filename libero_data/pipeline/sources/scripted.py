@@ -1,11 +1,12 @@
 """The scripted expert as a demonstration source: each slot's episode is searched in a worker
-(attempts with new seeds until one succeeds), and the card says where the episodes started."""
+(attempts with new seeds until one succeeds within the request's length bound), and the card
+says where the episodes started."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from libero_data.pipeline.episodes import expert_env
+from libero_data.pipeline.episodes import env_settings, expert_env
 from libero_data.pipeline.request import STORED_INITS
 from libero_data.pipeline.sources.base import CardPart, DemoSource, EpisodeRecord, register_source
 from libero_data.seeding import demo_key, episode_seeds
@@ -30,9 +31,7 @@ class ScriptedExpert(DemoSource):
         return True
 
     def search(self, cache: WorkerCache, task: Task, request: GenerateRequest, slot: Slot) -> EpisodeRecord:
-        env, expert = expert_env(
-            cache, task, request.image_size, tuple(request.cameras), request.render_quality, request.arm_noise
-        )
+        env, expert = expert_env(cache, task, *env_settings(request, task))
         return search_slot(env, expert, task, request, slot)
 
     def card(self, request: GenerateRequest, suite: str, infos: list[dict[str, object]]) -> CardPart:
@@ -48,14 +47,18 @@ register_source(ScriptedExpert("scripted"))
 def search_slot(
     env: LiberoEnv, expert: Expert, task: Task, request: GenerateRequest, slot: Slot
 ) -> EpisodeRecord:
-    """Run attempts until one succeeds; the record of the kept (or last) attempt."""
+    """Run attempts until one succeeds within the length bound; the record of the kept (or last)
+    attempt. An attempt the bound stops (``expert`` is built to stop there) or that reaches the
+    goal only after it is a failed attempt, counted in the record's ``too_long``."""
     from libero_data.numerics import machine_fingerprint
     from libero_data.provenance import expert_code
 
     stored = task.init_states() if task.init_states_path is not None else None
+    bound = request.length_bound(task)
     code = expert_code()
     machine = machine_fingerprint()
     failures: list[str] = []
+    too_long = 0
     for attempt in range(request.max_attempts):
         reset_seed, expert_seed = episode_seeds(request.seed, demo_key(*episode_owner(task), slot.k), attempt)
         index = request.stored_start(slot.k, 0 if stored is None else len(stored))
@@ -64,7 +67,8 @@ def search_slot(
         else:
             init_index, init = -1, None  # LIBERO's own placement sampler, from reset_seed
         episode = expert.run(init, reset_seed=reset_seed, seed=expert_seed)
-        if episode.success:
+        over = over_bound(episode.success, episode.length, bound)
+        if episode.success and over is None:
             return EpisodeRecord(
                 success=True,
                 attempts=attempt + 1,
@@ -78,11 +82,31 @@ def search_slot(
                 states=episode.states,
                 final_state=episode.final_state,
                 plan=tuple(episode.plan),
+                too_long=too_long,
             )
-        failures.append(episode.failure or "unknown")
+        too_long += over is not None
+        failures.append(over or episode.failure or "unknown")
     return EpisodeRecord(
-        success=False, attempts=request.max_attempts, failures=tuple(failures), code=code, machine=machine
+        success=False,
+        attempts=request.max_attempts,
+        failures=tuple(failures),
+        code=code,
+        machine=machine,
+        too_long=too_long,
     )
+
+
+def over_bound(success: bool, length: int, bound: int | None) -> str | None:
+    """Why an attempt of ``length`` steps fails the length ``bound``, or None where it does not:
+    it reached the goal after the bound, or it was still going at the bound (the expert stops
+    there; whether it would have succeeded later is not known)."""
+    if bound is None:
+        return None
+    if success and length > bound:
+        return f"longer than the {bound}-step length bound (reached the goal after {length} steps)"
+    if not success and length >= bound:
+        return f"longer than the {bound}-step length bound (stopped at step {length} without the goal)"
+    return None
 
 
 #: The card's settings row for each kind of start.
