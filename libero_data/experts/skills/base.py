@@ -153,14 +153,15 @@ def turn_wrist(ctx: Context, angle: float, limit: float = 2.75) -> Generator[np.
     return chosen
 
 
-def upright(ctx: Context, height: float | None = None) -> Actions:
+def upright(ctx: Context, height: float | None = None, within: float = 25.0) -> Actions:
     """Back to a top-down hand (after a drawer, door or side insertion), turned in free air.
 
     The arm struggles to swing from a horizontal hand into a top-down one while reaching
-    for something else at the same time; this does the turn first, above the scene.
+    for something else at the same time; this does the turn first, above the scene. A hand
+    already within ``within`` degrees of pointing down is left to turn on its way.
     """
     mat = ctx.scene.eef_mat()
-    if float(mat[:, 2] @ np.array([0.0, 0.0, -1.0])) > np.cos(np.deg2rad(25)):
+    if float(mat[:, 2] @ np.array([0.0, 0.0, -1.0])) > np.cos(np.deg2rad(within)):
         return True
     here = ctx.scene.eef_pos()
     z = max(here[2], height if height is not None else here[2] + 0.08)

@@ -82,7 +82,9 @@ def carry_to(
     if start[2] < travel - 0.01:
         # Rise only as high as it takes for a straight line from there up to the travel height
         # over the target to clear everything on the way: the hand rises and travels at once.
-        rise = _diagonal_start(ctx, start, eef_xy, travel, body_above_bottom - (mat @ rel)[2], radius, exclude)
+        rise = _diagonal_start(
+            ctx, start, eef_xy, travel, body_above_bottom - (mat @ rel)[2], radius, exclude
+        )
         if rise > start[2] + 0.005:
             yield from lift(ctx, rise, speed=0.3 if ctx.notes.get("grasp_width", 1.0) >= 0.012 else 0.15)
     # A thin rim between the fingers slips under fast turns and stops: carry it gently.

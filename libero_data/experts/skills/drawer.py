@@ -65,18 +65,21 @@ def open_target(scene: SceneView, part: Part) -> float:
     return float(min(threshold + OPEN_MARGIN, full))
 
 
-def grasp_left_open(scene: SceneView, region: str, obj: str) -> bool:
+def grasp_left_open(scene: SceneView, region: str, obj: str, shift: np.ndarray | None = None) -> bool:
     """Whether ``obj`` keeps a top-down grasp as deep as its best one now once the drawer is
     opened (to :func:`open_target`): a bowl partly under its sweep can often be taken by its
     free side. Shallower grasps do not count: across a bowl's free side, a chord 1.7 cm higher
-    than the wall pinches missed every time (libero_goal/3)."""
+    than the wall pinches missed every time (libero_goal/3). ``shift`` (xy, m): as if the object
+    stood that much further."""
     from libero_data.experts.grasp import Moved, plan_top_down
 
     part = part_in(scene, region)
     out = part.joint.axis * part.open_sign
     out = out / np.linalg.norm(out)
-    shift = out * max(open_target(scene, part) - part.opened_in(scene), 0.0)
-    moved = Moved(tuple(scene.subtree(scene.body_id(part.joint.body))), shift)
+    offset = out * max(open_target(scene, part) - part.opened_in(scene), 0.0)
+    if shift is not None:
+        offset = offset - np.array([shift[0], shift[1], 0.0])  # the drawer moves the other way instead
+    moved = Moved(tuple(scene.subtree(scene.body_id(part.joint.body))), offset)
     now = plan_top_down(scene, obj, yaw_reference=0.0)
     if not now:
         return False
@@ -219,7 +222,7 @@ def _hook_open(ctx: Context, part: Part, region: str) -> Actions:
         yield from ctx.motion.move(
             goal,
             mat,
-            speed=0.22,
+            speed=0.3,
             tol=0.006,
             max_steps=150,
             until=lambda: _pulled_out(ctx, part, region),
@@ -372,9 +375,7 @@ def _free_push_poses(
     # The flattest tilt first (as before) cost 60-140 steps wherever the arm could not hold it
     # in front of a high drawer (libero_90/3, /4: 240 steps per close).
     full = max((reach for _, reach in found), default=0.0)
-    found.sort(
-        key=lambda f: (f[1] < full - 1e-6, -f[1], float(np.linalg.norm(rotation_error(f[0], now))))
-    )
+    found.sort(key=lambda f: (f[1] < full - 1e-6, -f[1], float(np.linalg.norm(rotation_error(f[0], now)))))
     return found
 
 

@@ -43,7 +43,8 @@ class Pick(Skill):
         # side of a wide object (:func:`_away_from_misses`).
         missed: list[np.ndarray] = []
         ctx.phase = "approach"
-        yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12)
+        # A hand tilted by up to 55 degrees (after hooking a drawer open) turns on its way.
+        yield from upright(ctx, height=float(scene.aabb(obj)[1][2]) + 0.12, within=55.0)
         if not insertion and not has_top_down_grasp(scene, obj):
             # Boxed in (a pudding pressed against a bowl): slide it a few cm into the open.
             yield from _nudge_into_the_open(ctx, obj)

@@ -8,6 +8,7 @@ from libero_data.bddl import Atom
 from libero_data.experts.geometry import top_down, wrap_half_turn, yaw_of_closing
 from libero_data.experts.grasp import TIP_BELOW_SITE, hand_collisions
 from libero_data.experts.motion import CLOSE, OPEN, Actions
+from libero_data.experts.scene import SceneView
 from libero_data.experts.skills.base import SKILLS, Context, Skill, SkillFailed, lift
 
 
@@ -196,3 +197,45 @@ def push_stroke(
                 if hand_collisions(others, start, mat) == 0 and hand_collisions(pts, start, mat) == 0:
                     return start, direction, mat, key
     return None
+
+
+def inside_push_start(ctx: Context, obj: str, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """For a hollow object (a bowl): the grip site with the finger tips on its floor just inside
+    the wall it is pushed toward, and a hand turned across the push; None for a solid one or
+    where the hand does not fit."""
+    scene = ctx.scene
+    if not is_hollow(scene, obj):
+        return None
+    pts = scene.points(obj)
+    body = scene.pos(obj)[:2]
+    lo, hi = pts.min(0), pts.max(0)
+    radius = float(np.max(hi[:2] - lo[:2])) / 2
+    tip_xy = body + direction * (radius - INSIDE_INSET)
+    near_tip = np.linalg.norm(pts[:, :2] - tip_xy, axis=1) < 0.01
+    floor = float(pts[near_tip, 2].max()) if near_tip.any() else float(lo[2])
+    start = np.array([*tip_xy, floor + TIP_BELOW_SITE + 0.008])
+    yaw = wrap_half_turn(
+        float(np.arctan2(direction[1], direction[0])) + np.pi / 2, yaw_of_closing(scene.eef_mat())
+    )
+    mat = top_down(yaw)
+    others = scene.obstacle_points(exclude=(obj,))
+    others = others[np.linalg.norm(others[:, :2] - body, axis=1) < 0.3]
+    if hand_collisions(others, start, mat):
+        return None
+    return start, mat
+
+
+#: How far inside the wall the finger tips go down in a hollow object (m): room for the
+#: fingers' thickness and the wall's slope.
+INSIDE_INSET = 0.025
+
+
+def is_hollow(scene: SceneView, obj: str) -> bool:
+    """Whether ``obj`` is open at the top with a floor well below its rim (a bowl, not a box):
+    finger tips fit inside it."""
+    pts = scene.points(obj)
+    body = scene.pos(obj)[:2]
+    lo, hi = pts.min(0), pts.max(0)
+    radius = float(np.max(hi[:2] - lo[:2])) / 2
+    middle = np.linalg.norm(pts[:, :2] - body, axis=1) < radius / 3
+    return bool(middle.any() and float(pts[middle, 2].max()) <= hi[2] - 0.025)
