@@ -294,6 +294,10 @@ MISS_RADIUS = 0.02
 #: Grip-site distance from the shoulder (m) beyond which a top-down hand nears the
 #: straight-elbow limit (the arm locks straight at about 0.84 m and cannot pull back in).
 COMFORTABLE_REACH = 0.79
+#: A grasp this much (m) within comfortable reach is close at hand: where it sets the object
+#: down does not re-rank it (the stall ``PLACING_REACH`` guards against came after a grasp near
+#: the edge of reach, a bowl on a cabinet top).
+CLOSE_AT_HAND = 0.15
 #: Setting an object down takes fine moves at the end of the way: there the hand should
 #: stay closer: a bowl held on its far rim puts the hand further out over the plate than one
 #: held on its near rim, far enough for the straight elbow to stall (on libero_spatial/9 the
@@ -324,6 +328,11 @@ def _within_reach(ctx: Context, grasps: list, obj: str | None = None, target: st
     def excess(g) -> float:
         here = float(np.linalg.norm(g.pos - shoulder)) - COMFORTABLE_REACH
         there = float(np.linalg.norm(g.pos + shift - shoulder)) - PLACING_REACH if shift is not None else 0.0
+        if here < -CLOSE_AT_HAND:
+            # Taken close at hand, the arm has room left to stretch out over the target: a bowl
+            # on the stove (libero_spatial/7) held by its side rim reached the plate 0.79 m out,
+            # where its near rim, ranked first by this rule, was missed again and again.
+            there = 0.0
         return max(here, there, 0.0)
 
     if not grasps or all(excess(g) == 0.0 for g in grasps):
