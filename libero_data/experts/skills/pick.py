@@ -179,10 +179,12 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         # the hand fits: on libero_10/9 the mug then more often had to be laid in instead.
         near = grasp.pos - grasp.mat[:, 2] * DESCENT_SLOW
         yield from ctx.motion.move(near, grasp.mat, speed=2.0 * descent, tol=0.008, max_steps=40)
-    reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=descent, tol=0.004)
+    # Blocked on the way down (usually by the object itself, or a finger on an open drawer's
+    # edge): given up once 8 steps gain nothing (it pressed on for up to 120 before), then one
+    # more slow push.
+    reached = yield from ctx.motion.move(grasp.pos, grasp.mat, speed=descent, tol=0.004, stall=8)
     if not reached:
-        # Blocked on the way down (usually by the object itself): one more slow push.
-        yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.06, tol=0.006, max_steps=30)
+        yield from ctx.motion.move(grasp.pos, grasp.mat, speed=0.06, tol=0.006, max_steps=30, stall=8)
     ctx.phase = label("grasp")
     yield from ctx.motion.set_gripper(CLOSE, steps=10, mat=grasp.mat)
     if not scene.grasped(obj):
