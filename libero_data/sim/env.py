@@ -102,6 +102,7 @@ class LiberoEnv:
         self.language = self.task.language if self.task is not None else self.problem.language
         self.backend = select_backend(self.config.renderer) if self.config.cameras else None
         self._gl_info: dict[str, str] | None = None
+        self._home: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.perturbation = _perturbation_of(self.problem.perturbation)
         if self.perturbation is not None:
             from libero_data.perturb import apply as hooks
@@ -205,8 +206,16 @@ class LiberoEnv:
 
         saved = np.random.get_state()  # LIBERO samples from NumPy's global generator
         np.random.seed(seed)
+        bodies, pos, quat = self.fixture_home()
         try:
             for _attempt in range(100):
+                # LIBERO places an object on a fixture (a bowl on the stove) at the fixture's new
+                # placement plus the fixture site's position computed with the fixture where the
+                # model has it: where LIBERO's hard reset builds the model anew, a soft one must
+                # put the fixtures back first, or the object lands a fixture's offset away (on
+                # the floor, for libero_spatial/7's bowl).
+                self._env.sim.model.body_pos[bodies] = pos
+                self._env.sim.model.body_quat[bodies] = quat
                 try:
                     self._env.reset()
                     break
@@ -230,6 +239,20 @@ class LiberoEnv:
                 self._physics_step(NOOP_ACTION)
             self.set_state(self.get_state())
         return self.observe(render=render)
+
+    def fixture_home(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The fixtures' root bodies and the placement (positions, quaternions) the scene's model
+        gives them before any reset: where LIBERO's hard reset starts from."""
+        if self._home is None:
+            import mujoco
+
+            model = self._env.sim.model
+            bodies = np.asarray(
+                [model.body_name2id(f.root_body) for f in self._env.fixtures_dict.values()], dtype=np.intp
+            )
+            fresh = mujoco.MjModel.from_xml_string(self._env.model.get_xml())
+            self._home = (bodies, np.array(fresh.body_pos[bodies]), np.array(fresh.body_quat[bodies]))
+        return self._home
 
     def get_state(self) -> np.ndarray:
         """The flattened MuJoCo state (time, qpos, qvel) of the current frame."""

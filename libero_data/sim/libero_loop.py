@@ -70,18 +70,11 @@ class LiberoLoop:
     gives with the fixtures LIBERO's ``i``-th reset places."""
 
     def __init__(self, env: LiberoEnv, seed: int = LIBERO_LOOP_SEED) -> None:
-        import mujoco
-
         self.env = env
         self.seed = seed
         raw = env.raw
-        model = raw.sim.model
-        self._fixture_bodies = np.asarray(
-            [model.body_name2id(f.root_body) for f in raw.fixtures_dict.values()], dtype=np.intp
-        )
-        fresh = mujoco.MjModel.from_xml_string(raw.model.get_xml())  # the placement a hard reset starts from
-        self._fixture_pos = np.array(fresh.body_pos[self._fixture_bodies])
-        self._fixture_quat = np.array(fresh.body_quat[self._fixture_bodies])
+        # The placement a hard reset starts from.
+        self._fixture_bodies, self._fixture_pos, self._fixture_quat = env.fixture_home()
         self._property_samplers = list(raw.object_property_initializers)
         self._builds = 1  # model builds so far in LIBERO's loop: the environment's construction
         self._before: list[tuple[Any, int]] = []  # per episode: (NumPy state, model builds) before its reset

@@ -84,7 +84,7 @@ def test_a_drawer_the_goal_opens_is_opened_once() -> None:
     ]
 
 
-def test_what_an_opening_drawer_would_cover_is_set_aside_first() -> None:
+def test_what_an_opening_drawer_would_cover_is_pushed_aside_first() -> None:
     drawer = "wooden_cabinet_1_top_region"
     out = steps(
         "libero_90/8",
@@ -93,8 +93,7 @@ def test_what_an_opening_drawer_would_cover_is_set_aside_first() -> None:
         covered=lambda d, o: (d, o) == (drawer, "akita_black_bowl_1"),
     )
     assert out == [
-        "pick(akita_black_bowl_1)",
-        f"set_aside(akita_black_bowl_1, {drawer})",
+        f"push_aside(akita_black_bowl_1, {drawer})",
         f"open_drawer({drawer})",
         f"pick(akita_black_bowl_1, {drawer})",
         f"place_in(akita_black_bowl_1, {drawer})",
