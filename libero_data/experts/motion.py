@@ -28,10 +28,10 @@ FULL_OPENING = 0.08
 #: (m) from where they end.
 SLOW_BELOW = 0.03
 
-#: Within reach of the set-point, a free-space move asks each step for this many times the
-#: remaining error: the controller covers about a quarter of what it is asked per step, so at 1
-#: the last centimetres crawled (2 cm to 3 mm took ~7 steps). Fine moves keep 1: at 2, objects
-#: lowered onto their spot in 2-step moves missed it (libero_90/40, /83, libero_10/8).
+#: Within reach of the set-point, a move asks each step for this many times the remaining error
+#: (``gain``): the controller covers about a quarter of what it is asked per step, so at 1 the
+#: last centimetres crawled (2 cm to 3 mm took ~7 steps). Lowering a held object onto its spot in
+#: 2-step moves keeps 1: at 2 it missed the spot (libero_90/40, /83, libero_10/8).
 FINAL_GAIN = 2.0
 
 Actions = Generator[np.ndarray, None, bool]
@@ -79,6 +79,7 @@ class Motion:
         min_steps: int = 0,
         until: Callable[[], bool] | None = None,
         stall: int | None = None,
+        gain: float = FINAL_GAIN,
     ) -> Actions:
         """Drive the grip site to ``pos`` (and orientation ``mat``); True when reached.
 
@@ -91,9 +92,6 @@ class Motion:
         pos = np.asarray(pos, dtype=np.float64)
         v = (self.style.speed if speed is None else speed * self.style.tempo) * CONTROL_DT * self.style.lead
         w = self.style.turn_speed * self.style.tempo * CONTROL_DT * self.style.lead
-        # Free-space moves close in faster; fine ones (their own speed: descents, lowering an
-        # object onto its spot) at the controller's own pace, which does not overshoot.
-        gain = FINAL_GAIN if speed is None else 1.0
         closest, since = np.inf, 0
         for step in range(max_steps):
             cur = self.scene.eef_pos()

@@ -121,7 +121,7 @@ def carry_to(
         if np.linalg.norm(error_xy) < 0.003:
             break
         goal = scene.eef_pos() + np.array([error_xy[0], error_xy[1], 0.0])
-        yield from ctx.motion.move(goal, mat, speed=speed, tol=0.002, max_steps=2)
+        yield from ctx.motion.move(goal, mat, speed=speed, tol=0.002, max_steps=2, gain=1.0)
     trail: list[np.ndarray] = []
     for _ in range(80):
         body = scene.pos(ctx.held)
@@ -139,7 +139,7 @@ def carry_to(
         goal = scene.eef_pos() + np.array([error_xy[0], error_xy[1], error_z])
         # Down at twice the pace while the object is still well above where it goes.
         pace = 2.0 * speed if error_z < -SLOW_BELOW else speed
-        yield from ctx.motion.move(goal, mat, speed=pace, tol=0.003, max_steps=2)
+        yield from ctx.motion.move(goal, mat, speed=pace, tol=0.003, max_steps=2, gain=1.0)
     return False
 
 
