@@ -15,6 +15,9 @@ from libero_data.experts.skills.set_aside import SetAside
 EXTRA = 0.015
 #: Longest stroke tried (m); beyond it the object is picked and set down instead.
 LONGEST = 0.14
+#: How much further than the shortest distance that leaves a good grasp an object is pushed (m):
+#: pushed just that far, grasps were marginal and descents onto them stuck.
+SPARE = 0.03
 
 
 @SKILLS.register("push_aside")
@@ -95,10 +98,13 @@ def _ways_out(ctx: Context, obj: str, region: str) -> list[tuple[np.ndarray, flo
             direction = np.zeros(2)
             direction[axis] = sign
             distance = (ohi[axis] - lo[axis] + margin) if sign < 0 else (hi[axis] - olo[axis] + margin)
-            # Far enough for a grasp as good as now once the drawer is open, if that is less.
-            for shorter in np.arange(0.02, min(distance, LONGEST), 0.01):
-                if grasp_left_open(scene, region, obj, shift=direction * shorter):
-                    distance = float(shorter) + 0.03
+            # Far enough for a grasp as good as now once the drawer is open, if that is less: the
+            # first distance from which 3 cm more still leaves one (the push ends that much further).
+            for shorter in np.arange(0.02, min(distance, LONGEST) - SPARE, 0.01):
+                if grasp_left_open(scene, region, obj, shift=direction * shorter) and grasp_left_open(
+                    scene, region, obj, shift=direction * (shorter + SPARE)
+                ):
+                    distance = float(shorter) + SPARE
                     break
             if distance <= 0 or distance > LONGEST:
                 continue
