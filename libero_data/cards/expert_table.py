@@ -201,8 +201,47 @@ def write_report(
             f"| {r.suite}/{r.index} | {language_from_name(r.name)} | {r.successes}/{r.episodes} "
             f"| {'–' if within is None else f'{within}/{r.episodes}'} | {r.mean_length:.0f} | {fails} |"
         )
+    lines += _short_lines(results)
     write_text(md_path, "\n".join(lines) + "\n")
     return csv_path, md_path
+
+
+def short_tasks(results: list[TaskResult]) -> list[TaskResult]:
+    """The tasks whose success within the standard limit is under their floor
+    (:func:`libero_data.cards.limits.within_floor`), in table order."""
+    from libero_data.cards.limits import within_floor
+
+    out = []
+    for r in table_order(results):
+        within = task_within(r)
+        if within is not None and r.episodes and within / r.episodes < within_floor(r.suite):
+            out.append(r)
+    return out
+
+
+def _short_lines(results: list[TaskResult]) -> list[str]:
+    """The tasks under their within-limit floor, each with its stated reason (or none yet)."""
+    from libero_data.cards.limits import FIVE_SUITES_FLOOR, OTHER_FLOOR, stated_reasons
+
+    short = short_tasks(results)
+    if not short:
+        return []
+    reasons = stated_reasons()
+    lines = [
+        "",
+        "## Under the floor within the standard limit, and why",
+        "",
+        f"Tasks that succeed within their standard limit from fewer than {FIVE_SUITES_FLOOR:.0%} of their stored "
+        f"starts (a task of the five suites) or {OTHER_FLOOR:.0%} (LIBERO-PRO, LIBERO-Plus), with what keeps the "
+        "expert from doing them in time (`libero_data/cards/expert_limits.json`).",
+        "",
+        "| task | within the standard limit | why |",
+        "|---|---:|---|",
+    ]
+    for r in short:
+        ref = f"{r.suite}/{r.index}"
+        lines.append(f"| {ref} | {task_within(r)}/{r.episodes} | {reasons.get(ref, 'not explained yet')} |")
+    return lines
 
 
 def table_order(results: list[TaskResult]) -> list[TaskResult]:
