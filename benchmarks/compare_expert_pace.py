@@ -92,10 +92,16 @@ def compare(old: Path, new: Path) -> tuple[str, dict[str, Any]]:
         "| task | limit | success | within the limit | mean length | longest | p |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
-    worse, better, summary = [], [], {}
+    worse: list[str] = []
+    better: list[str] = []
+    summary: dict[str, dict[str, object]] = {}
     for ref in refs:
         o, n = old_rows[ref], new_rows[ref]
-        p = fisher_exact(o.successes, o.episodes, n.successes, n.episodes) if o.successes != n.successes else 1.0
+        p = (
+            fisher_exact(o.successes, o.episodes, n.successes, n.episodes)
+            if o.successes != n.successes
+            else 1.0
+        )
         mark = ""
         if p < 0.05:
             mark = " ▼" if n.successes < o.successes else " ▲"

@@ -71,11 +71,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("work", type=Path)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
-    rows, table = [], {}
+    rows: list[str] = []
+    table: dict[str, dict[str, Any]] = {}
+    outcomes: dict[str, dict[int, bool]] = {}
     for name, task, limit, data in RUNS:
         standard = standard_outcomes(args.work / "standard" / name)
         own = run_outcomes(args.work / "runs" / name)
         ok = sum(standard.values())
+        outcomes[name] = standard
         table[name] = {"task": task, "limit": limit, "demonstrations": data, "standard": standard, "own": own}
         own_cells = " | ".join(rate(*own[k]) if k in own else "–" for k in ("stored", "heldout"))
         rows.append(f"| {task} | {data} | `{name}` | {limit} | {rate(ok, len(standard))} | {own_cells} |")
@@ -97,9 +100,9 @@ def main(argv: list[str] | None = None) -> int:
         "| task | before | today | only before | only today | McNemar exact p |",
         "|---|---:|---:|---:|---:|---:|",
     ]
-    pairs = {}
+    pairs: dict[str, dict[str, float]] = {}
     for a, b in PAIRS:
-        sa, sb = table[a]["standard"], table[b]["standard"]
+        sa, sb = outcomes[a], outcomes[b]
         common = sorted(set(sa) & set(sb))
         only_a = sum(1 for i in common if sa[i] and not sb[i])
         only_b = sum(1 for i in common if sb[i] and not sa[i])

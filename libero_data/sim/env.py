@@ -31,9 +31,8 @@ log = logging.getLogger(__name__)
 #: Our camera names -> robosuite camera names.
 CAMERAS: dict[str, str] = {"agentview": "agentview", "eye_in_hand": "robot0_eye_in_hand"}
 ACTION_DIM = 7
-#: How images are drawn: ``full`` is LIBERO's renderer as it is (pixel for pixel); ``fast``
-#: draws simplified visual meshes (libero_data.sim.fast), held close to ``full`` by tests and
-#: measured against it in every dataset made with it.
+#: How images are drawn: ``full`` is LIBERO's renderer, pixel for pixel; ``fast`` draws simplified
+#: visual meshes (libero_data.sim.fast), held close to ``full`` by tests and in every dataset.
 RENDER_QUALITIES = ("full", "fast")
 #: Zero motion, gripper open.
 NOOP_ACTION = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0])
@@ -195,12 +194,10 @@ class LiberoEnv:
     ) -> dict[str, Any]:
         """Reset the scene; fixtures are placed from ``seed``, objects from ``init_state``.
 
-        Without ``init_state`` the objects are placed by LIBERO's own sampler from ``seed``, and
-        the arm's joints get the noise LIBERO's stored init states have (:mod:`libero_data.sim.arm`).
-        ``settle`` no-op steps (gripper open) follow: stored init states hold objects a few
-        centimetres above their supports, and about 20 steps let them come to rest. The
-        returned state is canonical (see :meth:`set_state`), so an episode recorded from it
-        replays exactly from its first stored state.
+        Without ``init_state`` LIBERO's own sampler places the objects from ``seed``, and the arm's
+        joints get the noise LIBERO's stored init states have (:mod:`libero_data.sim.arm`). ``settle``
+        no-op steps follow (stored states hold objects a little above their supports; ~20 let them
+        rest). The returned state is canonical (:meth:`set_state`): an episode replays exactly.
         """
         from robosuite.utils.errors import RandomizationError
 
@@ -209,11 +206,9 @@ class LiberoEnv:
         bodies, pos, quat = self.fixture_home()
         try:
             for _attempt in range(100):
-                # LIBERO places an object on a fixture (a bowl on the stove) at the fixture's new
-                # placement plus the fixture site's position computed with the fixture where the
-                # model has it: where LIBERO's hard reset builds the model anew, a soft one must
-                # put the fixtures back first, or the object lands a fixture's offset away (on
-                # the floor, for libero_spatial/7's bowl).
+                # LIBERO puts an object on a fixture at the fixture's new placement plus its site
+                # as the model has it: a soft reset puts the fixtures back first (libero_spatial/7's
+                # bowl fell on the floor without).
                 self._env.sim.model.body_pos[bodies] = pos
                 self._env.sim.model.body_quat[bodies] = quat
                 try:
@@ -259,13 +254,9 @@ class LiberoEnv:
         return np.asarray(self._env.sim.get_state().flatten(), dtype=np.float64)
 
     def set_state(self, state: np.ndarray) -> None:
-        """Restore a flattened MuJoCo state (as stored in init states and datasets).
-
-        Everything else that shapes the next steps is put in a canonical form: the gripper's
-        command ramp is fully open, the solver's warm start is cleared and the arm controller
-        re-reads the pose. So the same state
-        followed by the same actions gives the same trajectory, bit for bit.
-        """
+        """Restore a flattened MuJoCo state (as stored in init states and datasets); the rest that
+        shapes the next steps is made canonical (gripper ramp open, solver warm start cleared,
+        controller re-reads the pose), so the same state and actions give the same trajectory."""
         state = np.asarray(state, dtype=np.float64).reshape(-1)
         if state.shape[0] != self.state_dim:
             raise ValueError(
@@ -292,11 +283,8 @@ class LiberoEnv:
         return self.observe(render=render), ok
 
     def advance(self, action: np.ndarray) -> bool:
-        """Apply one action and return whether the goal holds, building no observation.
-
-        The same physics as :meth:`step` (the same states, bit for bit), for searching and
-        re-simulating, where observations would be thrown away.
-        """
+        """Apply one action and return whether the goal holds, building no observation: the same
+        physics as :meth:`step`, bit for bit, for searching where observations are thrown away."""
         action = np.asarray(action, dtype=np.float64).reshape(-1)
         if action.shape[0] != ACTION_DIM or not np.all(np.isfinite(action)):
             raise ValueError(f"action must be {ACTION_DIM} finite numbers, got {action!r}")
@@ -310,18 +298,10 @@ class LiberoEnv:
         self._stepper.step(action)
 
     def _trim_step(self) -> None:
-        """Remove work from robosuite's control step that never changes its result.
-
-        - :class:`~libero_data.sim.stepper.ControlStepper` runs the 25 physics substeps of a
-          control step with one forward pass each instead of two, and the arm controller
-          reads the state through cached indices (see that module).
-        - LIBERO's reward evaluates the goal's predicates on every control step; nothing
-          here reads that reward (success is evaluated once, by :meth:`success`).
-
-        Both are per instance (robosuite and LIBERO themselves are left untouched), and the
-        states a step produces are bit for bit the same (tested). Called again after every
-        reset, where robosuite builds new controllers.
-        """
+        """Remove work from robosuite's control step that never changes its result: the 25
+        substeps with one forward pass each (:class:`~libero_data.sim.stepper.ControlStepper`)
+        and LIBERO's per-step reward (success is evaluated once, by :meth:`success`). Per
+        instance, bit for bit the same states (tested); again after every reset."""
         from libero_data.sim.stepper import ControlStepper
 
         env = self._env
@@ -363,11 +343,8 @@ class LiberoEnv:
         return int(self.sim.model.camera_name2id(CAMERAS.get(camera, camera)))
 
     def gl_info(self) -> dict[str, str] | None:
-        """The OpenGL vendor, renderer and version that draw this environment's images.
-
-        ``None`` without cameras. Images depend on the renderer (Mesa's llvmpipe on a CPU, a
-        GPU driver elsewhere), so datasets record it beside the numeric fingerprint.
-        """
+        """The OpenGL vendor, renderer and version that draw this environment's images (``None``
+        without cameras): images depend on it, so datasets record it beside the numeric fingerprint."""
         if not self.config.cameras:
             return None
         if self._gl_info is None and self.fast_images is not None:
