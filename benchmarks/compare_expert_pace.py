@@ -14,42 +14,25 @@ from __future__ import annotations
 
 import argparse
 import json
-from math import comb
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from libero_data.cards.expert_table import task_limit, task_within
+from libero_data.cards.expert_table import summarise, task_limit, task_within
 from libero_data.experts.report import TaskResult, read_report
 from libero_data.runtime.files import write_text
-from libero_data.stats import wilson_interval
+from libero_data.stats import fisher_exact
 from libero_data.tasks.horizons import HUMAN_LONGEST, base_suite
-
-
-def fisher_exact(a: int, n: int, b: int, m: int) -> float:
-    """Two-sided Fisher exact p of ``a`` of ``n`` against ``b`` of ``m`` successes."""
-    total, k = n + m, a + b
-
-    def p(x: int) -> float:
-        return comb(n, x) * comb(m, k - x) / comb(total, k)
-
-    observed = p(a)
-    lo, hi = max(0, k - m), min(k, n)
-    return float(min(1.0, sum(p(x) for x in range(lo, hi + 1) if p(x) <= observed * (1 + 1e-9))))
 
 
 def _suite_line(suite: str, before: list[TaskResult], after: list[TaskResult]) -> str:
     def cells(rows: list[TaskResult]) -> tuple[str, str, str, str]:
-        n = sum(r.episodes for r in rows)
-        ok = sum(r.successes for r in rows)
-        within = sum(task_within(r) or 0 for r in rows)
+        t = summarise(rows)[suite]
         lengths = [x for r in rows for x in r.lengths]
-        low, high = wilson_interval(ok, n)
-        wlow, whigh = wilson_interval(within, n)
         return (
-            f"{ok / n:.1%} ({low:.1%}–{high:.1%})",
-            f"{within / n:.1%} ({wlow:.1%}–{whigh:.1%})",
+            f"{t['rate']:.1%} ({t['low']:.1%}–{t['high']:.1%})",
+            f"{t['within_rate']:.1%} ({t['within_low']:.1%}–{t['within_high']:.1%})",
             f"{np.mean(lengths):.0f}" if lengths else "–",
             f"{np.percentile(lengths, 95):.0f}" if lengths else "–",
         )

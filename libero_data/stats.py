@@ -66,6 +66,22 @@ def mcnemar_exact(only_a: int, only_b: int) -> float:
     return min(1.0, 2.0 * binomial_cdf(min(only_a, only_b), n, 0.5))
 
 
+def fisher_exact(a: int, n: int, b: int, m: int) -> float:
+    """Two-sided Fisher exact test of two independent rates: the p-value that ``a`` successes of
+    ``n`` and ``b`` of ``m`` come from one rate (the tables as or less likely than the observed one,
+    given both margins)."""
+    if not (0 <= a <= n and 0 <= b <= m):
+        raise ValueError(f"need 0 <= successes <= trials, got {a}/{n} and {b}/{m}")
+    total, k = n + m, a + b
+
+    def p(x: int) -> float:
+        return math.comb(n, x) * math.comb(m, k - x) / math.comb(total, k)
+
+    observed = p(a)
+    outcomes = range(max(0, k - m), min(k, n) + 1)
+    return float(min(1.0, sum(p(x) for x in outcomes if p(x) <= observed * (1 + 1e-9))))
+
+
 def holm_adjusted(p_values: Sequence[float]) -> list[float]:
     """Holm's step-down adjustment of a family of p-values, in their given order: a hypothesis
     is rejected at level alpha when its adjusted p-value is below alpha, which keeps the chance

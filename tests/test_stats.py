@@ -37,3 +37,16 @@ def test_holm_adjusted_steps_down_and_keeps_order() -> None:
     assert holm_adjusted([0.5, 0.6]) == pytest.approx([1.0, 1.0])
     assert holm_adjusted([0.001, 0.3, 0.02]) == pytest.approx([0.003, 0.3, 0.04])
     assert holm_adjusted([]) == []
+
+
+def test_fisher_exact_two_sided() -> None:
+    from libero_data.stats import fisher_exact
+
+    # Fisher's tea tasting: 3 of 4 against 1 of 4, two-sided p = 17/35
+    assert fisher_exact(3, 4, 1, 4) == pytest.approx(17 / 35)
+    # 42 of 50 against 50 of 50 (libero_spatial/7 before and after issue 74), as SciPy gives it
+    assert fisher_exact(42, 50, 50, 50) == pytest.approx(0.005770162019615051)
+    assert fisher_exact(34, 50, 26, 50) == pytest.approx(fisher_exact(26, 50, 34, 50))
+    assert fisher_exact(20, 50, 20, 50) == 1.0
+    with pytest.raises(ValueError):
+        fisher_exact(6, 5, 1, 5)

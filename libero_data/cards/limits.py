@@ -1,6 +1,6 @@
 """Why the expert falls short on a task: stated reasons, kept as data (``expert_limits.json``:
 task reference to one or two sentences), shown by the expert report beside every task whose
-success within the standard limit is under its floor (:data:`WITHIN_FLOORS`)."""
+success within the standard limit is under its floor (:func:`within_floor`)."""
 
 from __future__ import annotations
 
