@@ -6,11 +6,13 @@ episodes themselves are counted in tests/experts/test_skills.py and the committe
 from __future__ import annotations
 
 from types import SimpleNamespace
+from typing import cast
 
 import numpy as np
 import pytest
 
 from libero_data.experts.motion import FINAL_GAIN, Motion, Style
+from libero_data.experts.skills.base import Context
 from libero_data.experts.skills.carry import _diagonal_start
 
 DRAWER = "wooden_cabinet_1_top_region"
@@ -83,8 +85,9 @@ class _Scene:
         return self.points
 
 
-def _ctx(points: np.ndarray) -> SimpleNamespace:
-    return SimpleNamespace(scene=_Scene(points), held="cup")
+def _ctx(points: np.ndarray) -> Context:
+    # Only the two attributes _diagonal_start reads.
+    return cast(Context, SimpleNamespace(scene=_Scene(points), held="cup"))
 
 
 def test_a_carried_object_rises_only_as_high_as_the_way_needs() -> None:
