@@ -117,13 +117,14 @@ def test_card_states_the_expert_report_it_was_rendered_from(tmp_path: Path) -> N
     assert "expert code" not in out.read_text()
     missing = card(tmp_path / "nope.csv")
     assert missing.returncode != 0 and "nope.csv does not exist" in missing.stderr + missing.stdout
-    # With the committed report and its journal: success within the standard limit, and the plot.
+    # With a committed report and its journal (the expert before issue 74, kept as it was):
+    # success within the standard limit beside success at all, and the plot.
     import shutil
 
-    cards = Path(__file__).resolve().parents[1] / "cards"
+    before = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "expert_before_74"
     for name in ("expert_report.csv", "expert_report.jsonl"):
-        shutil.copy(cards / name, tmp_path / name)
+        shutil.copy(before / name, tmp_path / name)
     result = card(tmp_path / "expert_report.csv")
     assert result.returncode == 0 and f"wrote {out} and {tmp_path / 'card_lengths.png'}" in result.stdout
-    assert "| 100% (50/50) | 0% (0/50) |" in out.read_text()  # libero_goal/3: solved, never within 300
+    assert "| 100% (50/50) | 0% (0/50) |" in out.read_text()  # libero_goal/3 then: solved, never within 300
     assert "![Episode lengths against the standard limit](card_lengths.png)" in out.read_text()
