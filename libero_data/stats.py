@@ -78,8 +78,8 @@ def fisher_exact(a: int, n: int, b: int, m: int) -> float:
         return math.comb(n, x) * math.comb(m, k - x) / math.comb(total, k)
 
     observed = p(a)
-    outcomes = range(max(0, k - m), min(k, n) + 1)
-    return float(min(1.0, sum(p(x) for x in outcomes if p(x) <= observed * (1 + 1e-9))))
+    probs = [p(x) for x in range(max(0, k - m), min(k, n) + 1)]
+    return float(min(1.0, sum(q for q in probs if q <= observed * (1 + 1e-9))))
 
 
 def holm_adjusted(p_values: Sequence[float]) -> list[float]:

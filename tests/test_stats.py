@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from libero_data.stats import binomial_cdf, least_successes, starts_needed, wilson_interval
+from libero_data.stats import binomial_cdf, fisher_exact, least_successes, starts_needed, wilson_interval
 
 
 def test_wilson_interval() -> None:
@@ -40,8 +40,6 @@ def test_holm_adjusted_steps_down_and_keeps_order() -> None:
 
 
 def test_fisher_exact_two_sided() -> None:
-    from libero_data.stats import fisher_exact
-
     # Fisher's tea tasting: 3 of 4 against 1 of 4, two-sided p = 17/35
     assert fisher_exact(3, 4, 1, 4) == pytest.approx(17 / 35)
     # 42 of 50 against 50 of 50 (libero_spatial/7 before and after issue 74), as SciPy gives it
