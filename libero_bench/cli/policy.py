@@ -228,21 +228,44 @@ def serve_cmd(
             min=0,
         ),
     ] = None,
+    max_message_mb: Annotated[
+        float,
+        typer.Option(
+            "--max-message-mb",
+            help="Largest request read (MiB); a larger one closes its connection unread. The default fits "
+            "two 512 px images with room.",
+            min=0.01,
+        ),
+    ] = 8.0,
 ) -> None:
     """Serve a policy over openpi's websocket protocol (msgpack, nothing unpickled), so that a GPU machine
     serves while others roll out (libero-bench eval --server ws://HOST:PORT).
 
     Each connection is one episode; requests that arrive together, from any number of connections, go
-    through one batched forward pass. Each reply holds the one action the policy takes now. Stop with Ctrl-C.
+    through one batched forward pass. Each reply holds the one action the policy takes now. A request that
+    cannot be served gets one sentence back; the log on stderr names each connection, refusal and failure.
+    The policy makes one forward pass before the server listens. Stop with Ctrl-C.
     """
     quiet_environment()
     import asyncio
+    import logging
+    import sys
 
     from libero_bench.rollouts.actors import default_device
+    from libero_bench.rollouts.server import log as server_log
     from libero_bench.rollouts.server import served_policy
 
+    # The operator's view: each connection, refusal and failure (with its id), on stderr.
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    server_log.addHandler(handler)
+    server_log.setLevel(logging.INFO)
+    server_log.propagate = False
+
     chosen = device or default_device()
-    server = served_policy(str(policy), chosen, view_task)
+    server = served_policy(
+        str(policy), chosen, view_task, max_message_bytes=int(max_message_mb * 1024 * 1024)
+    )
     metadata = server.metadata
     ready = lambda bound: say(  # noqa: E731
         f"serving the {metadata['policy_type']} policy on {chosen} at ws://{host}:{bound} "

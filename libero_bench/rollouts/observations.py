@@ -53,6 +53,61 @@ OBSERVATION_KEYS = {
 }
 #: Our observations -> the request entry that carries each beyond openpi's four.
 EXTRA_ENTRIES = {"joint_pos": JOINTS, "gripper_state": GRIPPER}
+#: The shape each vector entry of a request must have: openpi's state (end-effector position,
+#: axis-angle, the gripper's two finger joints), the arm's seven joints, the two finger joints.
+VECTOR_SHAPES = {STATE: (8,), JOINTS: (7,), GRIPPER: (2,)}
+#: The sides (px) a request's camera image may have: LIBERO's policies read 64-256 px, openpi's
+#: client sends 224; a side outside these is a mistake (a 1 x 1 image) or a burden (3000 x 3000).
+IMAGE_SIDES = (16, 1024)
+#: The longest instruction (characters) a request may carry; LIBERO's longest has 127.
+PROMPT_LENGTH = 1000
+
+
+def _shape(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        return f"an array of {value.dtype} {tuple(value.shape)}"
+    return f"a {type(value).__name__}"
+
+
+def checked_entry(entry: str, value: Any) -> Any:
+    """A request's entry as the server reads it, or :class:`InputError`: one sentence naming the
+    entry, what it must be, and what came (images uint8 (H, W, 3) with sides within
+    ``IMAGE_SIDES``; the vectors finite numbers of their ``VECTOR_SHAPES``; the prompt a string)."""
+    if entry in (IMAGE, WRIST_IMAGE):
+        low, high = IMAGE_SIDES
+        if (
+            not isinstance(value, np.ndarray)
+            or value.dtype != np.uint8
+            or value.ndim != 3
+            or value.shape[2] != 3
+            or not (low <= value.shape[0] <= high and low <= value.shape[1] <= high)
+        ):
+            raise InputError(
+                f"{entry} must be a uint8 image of shape (H, W, 3) with sides of {low} to {high} px, "
+                f"not {_shape(value)}"
+            )
+        return value
+    if entry in VECTOR_SHAPES:
+        shape = VECTOR_SHAPES[entry]
+        array = value if isinstance(value, np.ndarray) else None
+        if isinstance(value, list | tuple) and all(isinstance(x, int | float) for x in value):
+            array = np.asarray(value, dtype=np.float64)
+        if array is None or array.dtype.kind not in "fiu" or array.shape != shape:
+            raise InputError(f"{entry} must be {shape[0]} numbers, not {_shape(value)}")
+        if not np.all(np.isfinite(array)):
+            raise InputError(f"{entry} must be finite, but holds NaN or infinity")
+        return array
+    if entry == PROMPT:
+        if not isinstance(value, str):
+            raise InputError(f"prompt must be a string (the task's instruction), not {_shape(value)}")
+        if len(value) > PROMPT_LENGTH:
+            raise InputError(f"prompt must be at most {PROMPT_LENGTH} characters, not {len(value)}")
+        return value
+    if entry == ROLLOUT_KEY:
+        if not isinstance(value, str):
+            raise InputError(f"rollout_key must be a string, not {_shape(value)}")
+        return value
+    return value
 
 
 def resize_with_pad(image: np.ndarray, size: int) -> np.ndarray:
@@ -108,7 +163,8 @@ def environment_observation(
 ) -> tuple[dict[str, Any], str, str | None]:
     """(observation, prompt, rollout key) of a request, images resized with padding to
     ``image_size`` (None: as sent); :class:`InputError` naming what is missing, including any of
-    ``needs`` (observations the policy reads that openpi's four entries do not carry)."""
+    ``needs`` (observations the policy reads that openpi's four entries do not carry), or an entry
+    that is not what it must be (:func:`checked_entry`)."""
     if not isinstance(message, dict):
         raise InputError("a request must be a map of observation entries")
     missing = [k for k in OPENPI_KEYS if k not in message]
@@ -117,7 +173,7 @@ def environment_observation(
     obs: dict[str, Any] = {}
     for entry, key in OBSERVATION_KEYS.items():
         if entry in message:
-            value = np.asarray(message[entry])
+            value = checked_entry(entry, message[entry])
             if key in ("agentview", "eye_in_hand") and image_size and value.shape[:2] != (image_size,) * 2:
                 value = resize_with_pad(value, image_size)
             obs[key] = value
@@ -129,8 +185,9 @@ def environment_observation(
             f"this policy also reads {', '.join(lacking)}, which the request lacks (openpi's LIBERO client "
             f"sends {', '.join(OPENPI_KEYS)} only)"
         )
+    prompt = checked_entry(PROMPT, message[PROMPT])
     rollout = message.get(ROLLOUT_KEY)
-    return obs, str(message[PROMPT]), None if rollout is None else str(rollout)
+    return obs, prompt, None if rollout is None else checked_entry(ROLLOUT_KEY, rollout)
 
 
 class RequestView(BatchActor):

@@ -29,7 +29,7 @@ import asyncio
 import itertools
 import logging
 import time
-import traceback
+import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -47,6 +47,10 @@ from libero_bench.rollouts.wire import pack, unpack
 from libero_data.errors import InputError, LiberoDataError
 
 log = logging.getLogger(__name__)
+
+#: The largest message (bytes) a server reads by default: two 512 px images and the rest with
+#: room (openpi's request at 224 px is ~0.3 MB); a larger one closes its connection unread (1009).
+MAX_MESSAGE_BYTES = 8 * 1024 * 1024
 
 
 @dataclass
@@ -79,6 +83,7 @@ class PolicyServer:
         image_size: int | None = None,
         needs: tuple[str, ...] = (),
         gather_s: float = 0.002,
+        max_message_bytes: int = MAX_MESSAGE_BYTES,
     ) -> None:
         self.actor = actor
         self.embed = embed
@@ -95,6 +100,7 @@ class PolicyServer:
                 "request; requests without it are refused"
             )
         self.gather_s = gather_s
+        self.max_message_bytes = max_message_bytes
         self._ids = itertools.count()
         self._pending: list[Pending] = []
         self._ended: list[int] = []
@@ -108,21 +114,23 @@ class PolicyServer:
         assert self._wake is not None
         slot = next(self._ids)  # one episode's history: a new one at each episode_start
         loop = asyncio.get_running_loop()
+        peer = _peer(websocket)
+        served = refused = 0
+        log.info("%s connected", peer)
         try:
             await websocket.send(pack(self.metadata))
             async for message in websocket:
                 try:
-                    if isinstance(message, str):
-                        raise InputError("requests are binary msgpack messages")
-                    request = unpack(message)
+                    request = _request(message)
                     if isinstance(request, dict) and CONTROL in request:
                         kind = request[CONTROL]
-                        if kind in (EPISODE_START, EPISODE_END):
-                            self._ended.append(slot)  # the episode's history goes with it
-                            slot = next(self._ids)
-                        await websocket.send(
-                            pack({ACK: kind if kind in (EPISODE_START, EPISODE_END) else "ignored"})
-                        )
+                        if kind not in (EPISODE_START, EPISODE_END):
+                            raise InputError(
+                                f"{CONTROL} must be {EPISODE_START!r} or {EPISODE_END!r}, not {kind!r}"
+                            )
+                        self._ended.append(slot)  # the episode's history goes with it
+                        slot = next(self._ids)
+                        await websocket.send(pack({ACK: kind}))
                         continue
                     obs, prompt, key = environment_observation(request, self.image_size, self.needs)
                     chunk = key is None  # openpi's client: no rollout key, chunks executed
@@ -133,19 +141,27 @@ class PolicyServer:
                             "or serve a policy that predicts chunks"
                         )
                 except (InputError, LiberoDataError) as exc:
+                    refused += 1
+                    log.warning("%s: refused a request: %s", peer, exc)
                     await websocket.send(f"{type(exc).__name__}: {exc}")
                     continue
                 except Exception:
-                    await websocket.send(traceback.format_exc())
+                    refused += 1
+                    await websocket.send(_internal_error(f"reading a request from {peer}"))
                     continue
                 pending = Pending(slot, obs, prompt, key or f"connection-{slot}", chunk, loop.create_future())
                 self._pending.append(pending)
                 self._wake.set()
                 await websocket.send(await pending.reply)
-        except ConnectionClosed:
-            pass
+                served += 1
+        except ConnectionClosed as exc:
+            if exc.sent is not None and exc.sent.code == 1009:  # websockets' reply to a message too big
+                log.warning(
+                    "%s: refused a message over %d bytes (--max-message-mb)", peer, self.max_message_bytes
+                )
         finally:
             self._ended.append(slot)
+            log.info("%s disconnected after %d request(s) served, %d refused", peer, served, refused)
 
     async def batcher(self) -> None:
         """Serve the waiting requests, all that arrived together in one pass."""
@@ -164,8 +180,7 @@ class PolicyServer:
             try:
                 chunks = await asyncio.to_thread(self._infer, batch)
             except Exception:
-                text = traceback.format_exc()
-                log.error("inference failed: %s", text)
+                text = _internal_error(f"a forward pass of {len(batch)} request(s)")
                 for p in batch:
                     p.reply.set_result(text)
                 continue
@@ -197,14 +212,48 @@ class PolicyServer:
             out.update({slot: np.asarray(a)[None] for slot, a in self.actor.act(single).items()})
         return out
 
+    def warm_up(self) -> float:
+        """One forward pass on a blank observation before the first client's (the first pass
+        builds kernels and caches: 12 s for a run's policy on a CPU, on a client's time before);
+        the seconds it took."""
+        size = self.image_size or int(self.metadata.get("image_size") or 224)
+        image = np.zeros((size, size, 3), dtype=np.uint8)
+        obs = {
+            "agentview": image,
+            "eye_in_hand": image,
+            "state": np.zeros(8, dtype=np.float32),
+            "joint_pos": np.zeros(7, dtype=np.float32),
+            "gripper_state": np.zeros(2, dtype=np.float32),
+        }
+        started = time.perf_counter()
+        slot = -1  # no client's: their slots count up from 0
+        prompt = "warm up"
+        self.actor.begin(
+            slot, Start("warm-up", prompt, self.embed(prompt) if self.embed is not None else None)
+        )
+        try:
+            if self.actor.chunk_size >= 2:
+                self.actor.act_chunks({slot: obs})
+            else:
+                self.actor.act({slot: obs})
+        finally:
+            self.actor.end(slot)
+        self.actor.forwards, self.actor.rows = 0, 0
+        seconds = time.perf_counter() - started
+        log.info("warmed up in %.1f s", seconds)
+        return seconds
+
     async def serve(self, host: str, port: int, ready: Callable[[int], None] | None = None) -> None:
         """Serve until cancelled; ``ready`` gets the port listened on (``port`` 0: one the system chose)."""
         from websockets.asyncio.server import serve
 
         self._wake = asyncio.Event()
+        await asyncio.to_thread(self.warm_up)
         batcher = asyncio.create_task(self.batcher())
         try:
-            async with serve(self.handler, host, port, compression=None, max_size=None) as server:
+            async with serve(
+                self.handler, host, port, compression=None, max_size=self.max_message_bytes
+            ) as server:
                 if ready is not None:
                     ready(int(next(iter(server.sockets)).getsockname()[1]))
                 await server.serve_forever()
@@ -212,7 +261,39 @@ class PolicyServer:
             batcher.cancel()
 
 
-def served_policy(path: str, device: str, view_task: int | None = None) -> PolicyServer:
+def _peer(websocket: Any) -> str:
+    address = getattr(websocket, "remote_address", None)
+    if isinstance(address, tuple) and len(address) >= 2:
+        return f"client {address[0]}:{address[1]}"
+    return "a client"
+
+
+def _request(message: Any) -> Any:
+    """A message as a request, or :class:`InputError` in one sentence (text, or bytes that are
+    not openpi's msgpack)."""
+    if isinstance(message, str):
+        raise InputError("requests are binary msgpack messages, not text")
+    try:
+        return unpack(message)
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(
+            f"the message is not openpi's msgpack ({type(exc).__name__}); send a map of numpy arrays and strings "
+            "as openpi-client's msgpack_numpy packs it"
+        ) from None
+
+
+def _internal_error(what: str) -> str:
+    """Log the current exception in full under a new id; the one sentence the client gets."""
+    ident = uuid.uuid4().hex[:8]
+    log.exception("error %s while %s", ident, what)
+    return f"InternalError: the server failed on this request (error {ident}; its log has the details)"
+
+
+def served_policy(
+    path: str, device: str, view_task: int | None = None, max_message_bytes: int = MAX_MESSAGE_BYTES
+) -> PolicyServer:
     """What ``libero-bench serve`` serves: a libero-bench run folder (its final checkpoint, in the
     evaluation view of the task at ``view_task``, default its last) or a LeRobot
     ``pretrained_model/`` folder (:func:`~libero_bench.rollouts.policy_kinds.policy_source`)."""
@@ -238,4 +319,5 @@ def served_policy(path: str, device: str, view_task: int | None = None) -> Polic
         embed=(lambda prompt: embed([prompt])[0]) if embed is not None else None,
         image_size=source.render_size if source.kind == RUN else None,
         needs=needs,
+        max_message_bytes=max_message_bytes,
     )
