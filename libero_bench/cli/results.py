@@ -111,7 +111,9 @@ def _compare_sweeps(sweep_a: Path, sweep_b: Path, out: Path | None) -> None:
 
 @user_errors
 def replay_cmd(
-    run: Annotated[Path, typer.Argument(help="A run folder.")],
+    run: Annotated[
+        Path, typer.Argument(help="A run folder, or an evaluation folder (libero-bench eval --out).")
+    ],
     task: Annotated[str, typer.Option("--task", help="Task name or position in the run.")],
     rollout: Annotated[
         int | None,
@@ -121,20 +123,28 @@ def replay_cmd(
     ] = None,
     rrd: Annotated[Path | None, typer.Option("--rrd", help="Save the Rerun recording here.")] = None,
 ) -> None:
-    """Show a stored evaluation rollout: list a task's rollouts, or save one's Rerun recording."""
+    """Show a stored evaluation rollout of a run or of an evaluation: list a task's rollouts, or save
+    one's Rerun recording."""
     import shutil
 
+    from libero_bench.evaluation.policy_eval import eval_task_rollouts, is_eval_folder
     from libero_bench.runs.folder import RunFolder, task_rollouts
 
     folder = RunFolder(run)
-    chosen, mine = task_rollouts(folder, task)
+    if is_eval_folder(run):
+        chosen, mine = eval_task_rollouts(run, task)
+    else:
+        chosen, mine = task_rollouts(folder, task)
     if rollout is None:
         for i, r in enumerate(mine):
-            when = {
-                "learning": f"while learning it, epoch {r['epoch']}",
-                "pruned": "after pruning, before fine-tuning",
-                "after": f"checkpoint kept after task {r['learned_after']}",
-            }.get(r["phase"], r["phase"])
+            if "phase" in r:
+                when = {
+                    "learning": f"while learning it, epoch {r['epoch']}",
+                    "pruned": "after pruning, before fine-tuning",
+                    "after": f"checkpoint kept after task {r['learned_after']}",
+                }.get(r["phase"], r["phase"])
+            else:  # an evaluation's: from which start
+                when = f"{r['start']} start {r['init_index']}" if r.get("init_index", -1) >= 0 else r["start"]
             outcome = "success" if r["success"] else "failure"
             say(f"{i:4d}  {r['key']}  {when}: {outcome} ({r['steps']} steps)")
         return

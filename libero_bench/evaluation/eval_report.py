@@ -103,6 +103,14 @@ def eval_markdown(summary: dict[str, Any]) -> str:
             )
         )
         limit = "Step limit: each task's in the table (openpi's per suite unless a note says otherwise)."
+        extra = summary.get("beyond_openpi")
+        if extra:
+            limit += (
+                f" The policy also read {', '.join(f'`{e}`' for e in extra)}, sent beyond openpi's four entries "
+                "(openpi's own LIBERO client does not send it)."
+            )
+        elif extra is not None:
+            limit += " The policy read openpi's four entries only."
     else:
         protocol = (
             "Protocol: libero-bench; stored: LIBERO's stored init states (the paper's protocol); held out: "

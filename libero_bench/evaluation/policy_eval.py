@@ -194,12 +194,30 @@ def _jobs(
     return jobs
 
 
+def _needs(source: PolicySource) -> list[str]:
+    """The observations a local policy reads beyond openpi's four entries (the gripper's fingers
+    come from openpi's state)."""
+    from libero_bench.rollouts.observations import EXTRA_ENTRIES
+
+    return [k for k in source.reads if k in EXTRA_ENTRIES and k != "gripper_state"]
+
+
+def beyond_openpi(source: PolicySource) -> list[str]:
+    """The request entries a standard evaluation sends beyond openpi's four: what the policy
+    reads (a local one) or what the server's metadata asks for (a served one)."""
+    from libero_bench.rollouts.observations import EXTRA_ENTRIES
+
+    if source.kind == SERVER:
+        return list(source.inputs.get("beyond_openpi", []))
+    return [EXTRA_ENTRIES[k] for k in _needs(source)]
+
+
 def _groups(
     source: PolicySource, request: EvalRequest, protocol: Protocol, jobs: list[RolloutJob]
 ) -> list[Group]:
     """The jobs grouped by the actor that acts for them (a run's per-task evaluation view), each
     actor wrapped in the protocol's request mapping where it runs here."""
-    from libero_bench.rollouts.observations import EXTRA_ENTRIES, OBSERVATION_KEYS, RequestView
+    from libero_bench.rollouts.observations import OBSERVATION_KEYS, RequestView
 
     def opener(view: int | None) -> Callable[[str], Any]:
         def open_actor(device: str) -> Any:
@@ -214,7 +232,7 @@ def _groups(
                     "cannot carry; evaluate it under the libero-bench protocol",
                     field="protocol",
                 )
-            needs = [k for k in source.reads if k in EXTRA_ENTRIES and k != "gripper_state"]
+            needs = _needs(source)
             size = source.render_size if source.kind == RUN else None
             return RequestView(actor, sent_size=request.image_size or 224, image_size=size, needs=needs)
 
@@ -304,6 +322,8 @@ def evaluate_policy(
         )
     summary = summarize_eval(settings, [session.records[k] for k in sorted(session.records)], starts)
     summary["policy"] = shown_from(source.ref, session.root)
+    if protocol.standard:
+        summary["beyond_openpi"] = beyond_openpi(source)
     if jobs or not session.joined:
         session.join(
             _rollouts_meta(session.root, settings),
@@ -351,14 +371,38 @@ def _eval_tasks(
 
 def _rollouts_meta(root: Path, settings: dict[str, Any]) -> dict[str, Any]:
     return {
+        "kind": "evaluation",
         "run": root.name,
-        "algo": "—",
         "policy": settings["policy_type"],
-        "preset": "eval",
-        "seed": "—",
+        "policy_ref": settings["request"]["policy"],
+        "protocol": (settings.get("protocol") or {}).get("name", LIBERO_BENCH),
         "request": {"repo_id": "libero-bench/rollouts", "suite": "eval"},
         "tasks": settings["tasks"],
     }
+
+
+def is_eval_folder(folder: str | Path) -> bool:
+    """Whether ``folder`` holds a policy evaluation (``libero-bench eval``'s ``config.json``)."""
+    try:
+        return bool(read_json(Path(folder) / "config.json").get("format") == EVAL_FORMAT)
+    except (LiberoDataError, OSError, ValueError, AttributeError):
+        return False
+
+
+def eval_task_rollouts(folder: str | Path, ref: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """A task of an evaluation (by name or position) and its rollouts' records, in key order
+    (their Rerun recordings: ``FOLDER/rrd/<key>.rrd``)."""
+    from libero_bench.runs.folder import find_task
+
+    config = read_json(Path(folder) / "config.json", required=("tasks",))
+    chosen = find_task(config, ref)
+    mine = sorted(
+        (r for r in eval_records(folder) if r.get("task_position") == chosen["position"]),
+        key=lambda r: r["key"],
+    )
+    if not mine:
+        raise InputError(f"task {chosen['name']} has no finished rollouts in {folder} yet", field="task")
+    return chosen, mine
 
 
 def eval_records(folder: str | Path) -> list[dict[str, Any]]:

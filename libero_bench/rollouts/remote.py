@@ -12,7 +12,9 @@ gets back (openpi's LIBERO client: 5). What is sent is the protocol's request
 - ``openpi`` (the standard protocol's): as openpi's current LIBERO client, one connection per slot
   for every episode, each episode framed by openpi's control messages (``episode_start`` with the
   suite, the instruction and the episode's number; ``episode_end`` with its success), the request
-  openpi's four entries, and a chunk shorter than ``replan_steps`` an error (openpi asserts it).
+  openpi's four entries and those the server's metadata names among its ``inputs`` (``libero-bench
+  serve`` of a run: the arm's joints), and a chunk shorter than ``replan_steps`` an error (openpi
+  asserts it) named before any rollout, with what to do.
 
 A server that cannot be reached, answers with an error (a text frame: its traceback), answers
 nothing within ``timeout`` seconds or closes the connection is a
@@ -27,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from libero_bench.rollouts.actors import ActionQueues, BatchActor, Observations, Start
-from libero_bench.rollouts.observations import libero_bench_request, openpi_request
+from libero_bench.rollouts.observations import EXTRA_ENTRIES, libero_bench_request, openpi_request
 from libero_bench.rollouts.wire import pack, unpack
 from libero_data.errors import PolicyServerError
 
@@ -64,6 +66,27 @@ def connect(url: str, timeout: float) -> tuple[Any, dict[str, Any]]:
     return connection, metadata
 
 
+def check_chunks(url: str, metadata: dict[str, Any], replan_steps: int) -> None:
+    """:class:`PolicyServerError` in one sentence, saying what to do, if the server at ``url``
+    answers fewer actions per request than openpi's loop executes of each chunk."""
+    horizon = metadata.get("action_horizon")
+    if isinstance(horizon, int) and horizon < replan_steps:
+        raise PolicyServerError(
+            f"the policy server at {url} answers {horizon} action(s) per request, fewer than the "
+            f"{replan_steps} of each chunk openpi's LIBERO loop executes; add --replan-steps {horizon} "
+            f"(the policy is then asked every {horizon} step(s), a deviation the report names) or evaluate "
+            "the policy here with libero-bench eval POLICY --protocol standard"
+        )
+
+
+def served_extras(metadata: dict[str, Any]) -> list[str]:
+    """The observations (``joint_pos``, ``gripper_state``) to send beyond openpi's four entries:
+    those the server's metadata lists among its ``inputs``."""
+    inputs = metadata.get("inputs")
+    named = set(inputs) if isinstance(inputs, list) else set()
+    return [key for key, entry in EXTRA_ENTRIES.items() if entry in named]
+
+
 def _reason(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return text[-1] if text else type(exc).__name__
@@ -91,12 +114,11 @@ class RemoteActor(BatchActor):
         self.queues = ActionQueues(replan_steps)
         probe, self.metadata = connect(url, timeout)  # unreachable: one sentence before any rollout
         probe.close()
-        horizon = self.metadata.get("action_horizon")
-        if self.openpi and isinstance(horizon, int) and horizon < replan_steps:
-            raise PolicyServerError(
-                f"the policy server at {url} answers {horizon} action(s) per request, fewer than the "
-                f"{replan_steps} of each chunk openpi's LIBERO loop executes"
-            )
+        if self.openpi:
+            check_chunks(url, self.metadata, replan_steps)
+        #: What is sent beyond openpi's four entries: what the server's metadata says its policy
+        #: reads (libero-bench serve of a run: the arm's joints), as a local standard evaluation does.
+        self.extra = served_extras(self.metadata) if self.openpi else []
         self._connections: dict[int, Any] = {}
         self._start: dict[int, Start] = {}
 
@@ -115,6 +137,10 @@ class RemoteActor(BatchActor):
                     "__experiment__": start.experiment,
                     "__task__": start.language,
                     "__episode_id__": start.episode,
+                    # Only when asking at every step (a deviation from openpi's loop, whose messages
+                    # are sent as they are otherwise): libero-bench serve then answers a policy that
+                    # predicts one action per step (openpi's servers ignore the entry).
+                    **({"__replan_steps__": 1} if self.queues.steps == 1 else {}),
                 },
             )
 
@@ -169,7 +195,7 @@ class RemoteActor(BatchActor):
             for slot in waiting:  # every waiting slot's request is out before any answer is read
                 start = self._start[slot]
                 if self.openpi:
-                    message = openpi_request(observations[slot], start.language, self.image_size)
+                    message = openpi_request(observations[slot], start.language, self.image_size, self.extra)
                 else:
                     message = libero_bench_request(
                         observations[slot], start.language, start.key, self.image_size
@@ -230,6 +256,7 @@ class RemoteActor(BatchActor):
             "request": "openpi" if self.openpi else "libero-bench",
             "image_size": self.image_size,
             "replan_steps": self.queues.steps,
+            **({"beyond_openpi": [EXTRA_ENTRIES[k] for k in self.extra]} if self.openpi else {}),
             "server_metadata": {
                 k: v for k, v in self.metadata.items() if isinstance(v, str | int | float | bool)
             },

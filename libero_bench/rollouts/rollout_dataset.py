@@ -46,6 +46,57 @@ Each episode has an MCAP log in `mcap/`; the run folder has a Rerun recording pe
 """
 
 
+EVAL_CARD = """---
+license: mit
+task_categories:
+- robotics
+tags:
+- LeRobot
+- LIBERO
+- libero-bench
+- policy-rollouts
+dataset_info:
+  splits:
+  - name: train
+    num_examples: {frames}
+configs:
+- config_name: default
+  data_files: data/*/*.parquet
+---
+
+# Rollouts of a policy evaluation
+
+Every rollout of the evaluation `{run}`: the {policy_type} policy `{policy}` under the {protocol}
+protocol, {episodes} over {tasks}, recorded like demonstrations (both cameras, 8-D state, joint
+positions, gripper state, 7-D actions and the MuJoCo state of every frame). The evaluation's
+`report.md` beside this folder gives the success rates with their intervals.
+
+`meta/libero_episodes.jsonl` tags each episode with its task (`task_name`, `task_position`), the
+kind of start (`start`: `stored` for LIBERO's stored init states, `heldout` for placements no
+training demonstration began from, `standard` for the standard protocol's episode i from stored
+init state i), the init state (`init_index`, `env_seed`) and `success`. Each episode has an MCAP
+log in `mcap/`; the evaluation folder has a Rerun recording per rollout (`libero-bench replay
+EVALUATION --task T`).
+"""
+
+
+def _run_card(run_meta: Mapping[str, Any], episodes: int, tasks: int, frames: int) -> str:
+    return ROLLOUT_CARD.format(
+        run=run_meta.get("run", ""),
+        algo=run_meta.get("algo", ""),
+        policy=run_meta.get("policy", ""),
+        preset=run_meta.get("preset", ""),
+        seed=run_meta.get("seed", ""),
+        episodes=episodes,
+        tasks=tasks,
+        frames=frames,
+    )
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}" if n == 1 else f"{n} {what}s"
+
+
 def build_rollout_dataset(
     shards: Sequence[Path],
     out: Path,
@@ -65,16 +116,19 @@ def build_rollout_dataset(
     if not shards:
         raise RunError("the run has no rollouts to collect")
     staging = work_dir / "rollouts-staging"
-    card = ROLLOUT_CARD.format(
-        run=run_meta.get("run", ""),
-        algo=run_meta.get("algo", ""),
-        policy=run_meta.get("policy", ""),
-        preset=run_meta.get("preset", ""),
-        seed=run_meta.get("seed", ""),
-        episodes=len(shards),
-        tasks=len(bddl),
-        frames=sum(int(json.loads((s / "episode.json").read_text())["length"]) for s in shards),
-    )
+    frames = sum(int(json.loads((s / "episode.json").read_text())["length"]) for s in shards)
+    if run_meta.get("kind") == "evaluation":
+        card = EVAL_CARD.format(
+            run=run_meta.get("run", ""),
+            policy_type=run_meta.get("policy", ""),
+            policy=run_meta.get("policy_ref", ""),
+            protocol=run_meta.get("protocol", ""),
+            episodes=_count(len(shards), "episode"),
+            tasks=_count(len(bddl), "task"),
+            frames=frames,
+        )
+    else:
+        card = _run_card(run_meta, len(shards), len(bddl), frames)
     from libero_data.record.shard import quiet_datasets
 
     with quiet_datasets():

@@ -116,6 +116,7 @@ class PolicyServer:
         loop = asyncio.get_running_loop()
         peer = _peer(websocket)
         served = refused = 0
+        per_step = False  # the client executes one action of each chunk (its episode_start says)
         log.info("%s connected", peer)
         try:
             await websocket.send(pack(self.metadata))
@@ -130,15 +131,18 @@ class PolicyServer:
                             )
                         self._ended.append(slot)  # the episode's history goes with it
                         slot = next(self._ids)
+                        if kind == EPISODE_START:
+                            # libero-bench eval --replan-steps 1 says so: it asks at every step
+                            per_step = request.get("__replan_steps__") == 1
                         await websocket.send(pack({ACK: kind}))
                         continue
                     obs, prompt, key = environment_observation(request, self.image_size, self.needs)
                     chunk = key is None  # openpi's client: no rollout key, chunks executed
-                    if chunk and self.actor.chunk_size < 2:
+                    if chunk and self.actor.chunk_size < 2 and not per_step:
                         raise InputError(
                             "this policy predicts one action per step, and openpi's LIBERO client executes 5 "
-                            "of each chunk; evaluate it with libero-bench eval --protocol standard (locally) "
-                            "or serve a policy that predicts chunks"
+                            "of each chunk; evaluate it with libero-bench eval --server URL --protocol standard "
+                            "--replan-steps 1 (asked at every step), or locally with --protocol standard"
                         )
                 except (InputError, LiberoDataError) as exc:
                     refused += 1

@@ -176,10 +176,59 @@ def test_openpis_loop_against_libero_bench_serve_acts_as_the_standard_protocol_l
         np.testing.assert_allclose(np.clip(run["actions"], -1, 1), here[episode], atol=1e-4)
 
 
+#: A committed run: libero_object/0, ResNet-T at 64 px, one action per step, reading the arm's joints.
+RUN = Path(__file__).resolve().parents[2] / "benchmarks/results/robustness_data/runs/single-object-0"
+
+
+@pytest.mark.sim
+def test_a_run_served_under_the_standard_protocol_acts_as_it_does_locally(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The served route to a published score for one of our runs (issue 75): refused before the
+    first rollout with what to do, leaving nothing that blocks the retry; with --replan-steps 1 the
+    run acts as in a local standard evaluation, and both reports name the joints it read."""
+    from libero_data.errors import PolicyServerError
+
+    steps = 6
+    task = ("libero_object/0",)
+    with serving(RUN) as url:
+        out = tmp_path / "served"
+        with pytest.raises(PolicyServerError, match=r"add --replan-steps 1 .* --protocol standard"):
+            evaluate_policy(EvalRequest(url, task, protocol="standard", trials=1, max_steps=steps), out)
+        assert not out.exists() or not any(out.iterdir())
+        request = EvalRequest(url, task, protocol="standard", trials=1, max_steps=steps, replan_steps=1)
+        served = evaluate_policy(request, out)
+    local = evaluate_policy(
+        EvalRequest(str(RUN), task, protocol="standard", trials=1, max_steps=steps), tmp_path / "local"
+    )
+    assert served["beyond_openpi"] == local["beyond_openpi"] == ["observation/joint_position"]
+    for folder in (out, tmp_path / "local"):
+        assert "also read `observation/joint_position`" in (folder / "report.md").read_text()
+        assert json.loads((folder / "report.json").read_text())["beyond_openpi"] == [
+            "observation/joint_position"
+        ]
+    assert "not the standard: 1 actions of each chunk instead of 5" in served["notes"]
+    np.testing.assert_allclose(_executed(out)[0], _executed(tmp_path / "local")[0], atol=1e-4)
+    # The evaluation's rollouts are an evaluation's (its card) and replay shows them.
+    card = (out / "rollouts" / "README.md").read_text()
+    assert "# Rollouts of a policy evaluation" in card and "under the standard" in card
+    assert "1 episode over 1 task," in card and "learned_after" not in card
+    from libero_bench.cli.results import replay_cmd
+
+    capsys.readouterr()
+    replay_cmd(out, task="0")
+    assert "standard start 0: " in capsys.readouterr().out
+    replay_cmd(
+        out, task="pick_up_the_alphabet_soup_and_place_it_in_the_basket", rollout=0, rrd=tmp_path / "r.rrd"
+    )
+    assert (tmp_path / "r.rrd").stat().st_size > 0
+
+
 @pytest.mark.parametrize(
     ("chunk", "needs", "message", "reply"),
     [
         (1, (), {}, "predicts one action per step"),
+        (1, (), {"__ctrl__": "episode_start", "__replan_steps__": 1}, None),
         (5, ("joint_pos",), {}, "also reads observation/joint_position, which the request lacks"),
         (5, (), {"__ctrl__": "episode_start", "__episode_id__": 0}, None),
     ],

@@ -1,0 +1,35 @@
+"""Every command's --help reads whole in an 80-column terminal (issue 75): long names such as
+``observation.images.wrist_image`` or ``$LIBERO_DATA_PLUS_ASSETS`` wrapped, never cut."""
+
+from __future__ import annotations
+
+import pytest
+import typer
+from typer.testing import CliRunner
+
+
+def _apps() -> list[tuple[str, typer.Typer]]:
+    from libero_bench.cli.commands import app as bench
+    from libero_data.cli.commands import app as data
+
+    return [("libero-data", data), ("libero-bench", bench)]
+
+
+def _commands(app: typer.Typer) -> list[str]:
+    return [c.name or c.callback.__name__ for c in app.registered_commands if c.callback is not None]
+
+
+@pytest.mark.parametrize("name", ["libero-data", "libero-bench"])
+def test_help_stays_whole_at_80_columns(name: str) -> None:
+    app = dict(_apps())[name]
+    runner = CliRunner()
+    commands = _commands(app)
+    assert len(commands) >= 8
+    for command in commands:
+        result = runner.invoke(app, [command, "--help"], terminal_width=80, env={"COLUMNS": "80"})
+        assert result.exit_code == 0, f"{name} {command} --help: {result.output[-500:]}"
+        for line in result.output.splitlines():
+            assert len(line) <= 80, f"{name} {command} --help: {line!r}"
+            assert "…" not in line, f"{name} {command} --help cuts a word: {line!r}"
+    generate = runner.invoke(dict(_apps())["libero-data"], ["generate", "--help"], env={"COLUMNS": "80"})
+    assert "observation.images.wrist_image" in generate.output
