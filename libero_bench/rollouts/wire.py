@@ -13,6 +13,12 @@ openpi's own LIBERO evaluation speaks and many VLA code bases copy:
 NumPy arrays travel as maps ``{b"__ndarray__": True, b"data": bytes, b"dtype": dtype.str,
 b"shape": shape}`` and NumPy scalars as ``{b"__npgeneric__": True, b"data": value, b"dtype": ...}``;
 object, void and complex arrays are refused. Decoding builds arrays from bytes only: no pickle.
+
+openpi's own package, ``openpi-client`` (PyPI 0.1.2), carries this format (``msgpack_numpy``), but
+it pins ``numpy<2`` and pulls in ``dm-tree``: it cannot be installed beside this project's NumPy 2.
+So the format is written here, and tested against the package itself, byte for byte both ways
+(``tests/bench/test_openpi_client.py`` loads its module from its wheel). Beyond it, decoding here
+refuses object/void/complex dtypes itself and returns writable copies.
 """
 
 from __future__ import annotations
