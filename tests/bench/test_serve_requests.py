@@ -218,25 +218,41 @@ def test_the_policy_is_warmed_up_before_the_server_listens() -> None:
     assert actor.passes == 2 and actor.forwards == 1  # the warm-up's pass is not counted as a client's
 
 
-def test_dozens_of_clients_at_once_are_all_answered() -> None:
+def _rss_mib() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError("no VmRSS in /proc/self/status")
+
+
+def test_dozens_of_clients_at_once_are_all_answered_and_memory_stays_steady() -> None:
+    """24 clients x 5 requests at once, four rounds (a bounded load: 480 requests of 0.3 MB, within
+    two minutes): every request answered, batched across connections, and the server's memory (this
+    process's: it runs in a thread here) flat after the first round."""
     from concurrent.futures import ThreadPoolExecutor
 
     actor = Chunks()
     server = PolicyServer(actor, {"policy_type": "chunks"})
+    clients, requests, rounds = 24, 5, 4
     with serving(server) as port:
 
         def client(i: int) -> int:
             connection, _ = connect(f"ws://127.0.0.1:{port}", timeout=30)
             answered = 0
             try:
-                for _ in range(5):
+                for _ in range(requests):
                     connection.send(pack(valid()))
                     answered += unpack(connection.recv(timeout=60))["actions"].shape == (5, 7)
             finally:
                 connection.close()
             return answered
 
-        with ThreadPoolExecutor(24) as pool:
-            answered = list(pool.map(client, range(24)))
-    assert answered == [5] * 24
-    assert actor.rows == 120 and actor.forwards < 120  # batched across connections
+        resident = []
+        started = time.monotonic()
+        with ThreadPoolExecutor(clients) as pool:
+            for _ in range(rounds):
+                assert list(pool.map(client, range(clients))) == [requests] * clients
+                resident.append(_rss_mib())
+        assert time.monotonic() - started < 120
+    assert actor.rows == clients * requests * rounds and actor.forwards < actor.rows  # batched
+    assert resident[-1] - resident[0] < 20, f"resident memory by round (MiB): {resident}"
