@@ -120,7 +120,7 @@ def eval_markdown(summary: dict[str, Any]) -> str:
     lines = [
         f"# {summary['policy_type']} policy: success in simulation",
         "",
-        f"Policy: `{summary['policy']}`. Success with n and 95% Wilson interval. {protocol} {limit} Cut: rollouts "
+        f"Policy: `{summary.get('policy_given') or summary['policy']}`. Success with n and 95% Wilson interval. {protocol} {limit} Cut: rollouts "
         "that failed having taken every step of their task's limit (a longer limit might have let them finish).",
         "",
         "| task | "

@@ -110,6 +110,7 @@ def evaluate_libero_plus(
     table = {
         "benchmark": BENCHMARK,
         "policy": shown_from(source.ref, out),
+        "policy_given": str(policy),  # as the user named it (the report shows this)
         "policy_type": source.policy_type,
         "tasks": list(refs),
         "per_category": per_category,
@@ -165,7 +166,7 @@ def plus_markdown(table: dict[str, Any]) -> str:
     lines = [
         f"# LIBERO-Plus: the {table['policy_type']} policy",
         "",
-        f"Policy: `{table['policy']}`. LIBERO-Plus's protocol: each task once from its init state 0 under LIBERO's "
+        f"Policy: `{table.get('policy_given') or table['policy']}`. LIBERO-Plus's protocol: each task once from its init state 0 under LIBERO's "
         f"loop (the standard protocol); {sample}; the prompt is {prompt}. Success with n and 95% Wilson "
         "interval; Total pools the tasks run, as their table does."
         + ("" if table["standard"] else " **Not the standard protocol** in some suite: see its report."),

@@ -128,6 +128,7 @@ def evaluate_libero_pro(
     table = {
         "benchmark": BENCHMARK,
         "policy": shown_from(source.ref, out),
+        "policy_given": str(policy),  # as the user named it (the report shows this)
         "policy_type": source.policy_type,
         "trials_per_task": trials,
         "columns": list(COLUMNS),
@@ -165,7 +166,7 @@ def pro_markdown(table: dict[str, Any]) -> str:
     lines = [
         f"# LIBERO-PRO: the {table['policy_type']} policy",
         "",
-        f"Policy: `{table['policy']}`. Standard protocol (openpi's LIBERO loop), {table['trials_per_task']} "
+        f"Policy: `{table.get('policy_given') or table['policy']}`. Standard protocol (openpi's LIBERO loop), {table['trials_per_task']} "
         "episodes per task from stored init states 0..N-1 of each suite; success with n and 95% Wilson "
         "interval. Obj: objects changed; Pos: objects start elsewhere; Sem: the instruction paraphrased; "
         "Task: another task in the same scene. The policy gets each perturbed task's own instruction "

@@ -321,7 +321,8 @@ def evaluate_policy(
             on_result,
         )
     summary = summarize_eval(settings, [session.records[k] for k in sorted(session.records)], starts)
-    summary["policy"] = shown_from(source.ref, session.root)
+    summary["policy"] = shown_from(source.ref, session.root)  # found from the folder, moved or not
+    summary["policy_given"] = request.policy  # as the user named it (report.md shows this)
     if protocol.standard:
         summary["beyond_openpi"] = beyond_openpi(source)
     if jobs or not session.joined:

@@ -202,6 +202,9 @@ def test_a_run_served_under_the_standard_protocol_acts_as_it_does_locally(
         EvalRequest(str(RUN), task, protocol="standard", trials=1, max_steps=steps), tmp_path / "local"
     )
     assert served["beyond_openpi"] == local["beyond_openpi"] == ["observation/joint_position"]
+    # Each report names the policy as it was given (the json also as found from the folder).
+    assert f"Policy: `{url}`" in (out / "report.md").read_text()
+    assert f"Policy: `{RUN}`" in (tmp_path / "local" / "report.md").read_text()
     for folder in (out, tmp_path / "local"):
         assert "also read `observation/joint_position`" in (folder / "report.md").read_text()
         assert json.loads((folder / "report.json").read_text())["beyond_openpi"] == [
