@@ -241,8 +241,10 @@ def serve_cmd(
     """Serve a policy over openpi's websocket protocol (msgpack, nothing unpickled), so that a GPU machine
     serves while others roll out (libero-bench eval --server ws://HOST:PORT).
 
-    Each connection is one episode; requests that arrive together, from any number of connections, go
-    through one batched forward pass. Each reply holds the one action the policy takes now. A request that
+    Requests that arrive together, from any number of connections, go through one batched forward pass.
+    openpi's client (and eval --server --protocol standard) gets the policy's action chunk per request;
+    libero-bench's default protocol opens a connection per episode and gets the one action the policy takes
+    now. A request that
     cannot be served gets one sentence back; the log on stderr names each connection, refusal and failure.
     The policy makes one forward pass before the server listens. Stop with Ctrl-C.
     """
