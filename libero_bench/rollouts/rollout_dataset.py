@@ -14,7 +14,8 @@ from typing import Any
 
 from libero_data.errors import RunError
 
-ROLLOUT_CARD = """---
+#: The Hub card's YAML front matter of a rollout dataset (its ``{frames}`` filled in).
+FRONT_MATTER = """---
 license: mit
 task_categories:
 - robotics
@@ -31,7 +32,9 @@ configs:
 - config_name: default
   data_files: data/*/*.parquet
 ---
+"""
 
+ROLLOUT_CARD = FRONT_MATTER + """
 # Evaluation rollouts of a libero-bench run
 
 Every evaluation rollout of the run `{run}` ({algo} + {policy}, preset `{preset}`, seed {seed}):
@@ -46,24 +49,7 @@ Each episode has an MCAP log in `mcap/`; the run folder has a Rerun recording pe
 """
 
 
-EVAL_CARD = """---
-license: mit
-task_categories:
-- robotics
-tags:
-- LeRobot
-- LIBERO
-- libero-bench
-- policy-rollouts
-dataset_info:
-  splits:
-  - name: train
-    num_examples: {frames}
-configs:
-- config_name: default
-  data_files: data/*/*.parquet
----
-
+EVAL_CARD = FRONT_MATTER + """
 # Rollouts of a policy evaluation
 
 Every rollout of the evaluation `{run}`: the {policy_type} policy `{policy}` under the {protocol}

@@ -1,12 +1,21 @@
-"""Synthetic batches for the libero_bench tests (imported by tests and conftest)."""
+"""Helpers for the libero_bench tests (imported by tests and conftest): synthetic batches, a policy
+server on loopback."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import asyncio
+import contextlib
+import queue
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
+
+if TYPE_CHECKING:
+    from libero_bench.rollouts.server import PolicyServer
 
 BatchFactory = Callable[..., dict[str, torch.Tensor]]
 
@@ -62,3 +71,26 @@ def make_run(data: Path, out: Path) -> Path:
         patch.setattr(Trainer, "collect_rollouts", lambda self, results: None)
         Trainer(plan_run(run_request(data)), out, RunOptions()).run()
     return out
+
+
+@contextmanager
+def on_loopback(server: PolicyServer) -> Iterator[int]:
+    """``server`` on a loopback port the system chooses, in a thread; yields the port."""
+    loop = asyncio.new_event_loop()
+    ports: queue.Queue[int] = queue.Queue()
+    task: dict[str, asyncio.Task[None]] = {}
+
+    def run() -> None:
+        asyncio.set_event_loop(loop)
+        task["serve"] = loop.create_task(server.serve("127.0.0.1", 0, ready=ports.put))
+        with contextlib.suppress(asyncio.CancelledError):
+            loop.run_until_complete(task["serve"])
+        loop.close()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        yield ports.get(timeout=60)
+    finally:
+        loop.call_soon_threadsafe(task["serve"].cancel)
+        thread.join(timeout=30)

@@ -5,18 +5,13 @@ several connections and answers a bad one with text."""
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
-import queue
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import torch
+from bench_helpers import on_loopback
 from lerobot_policies import save_policy
 
 from libero_bench.rollouts.actors import ActionQueues, Start
@@ -138,29 +133,6 @@ def test_openpi_messages_round_trip_and_nothing_that_runs_code_passes() -> None:
         unpack(forged)
 
 
-@contextmanager
-def serving(server: PolicyServer) -> Iterator[int]:
-    """``server`` on a loopback port the system chooses, in a thread; yields the port."""
-    loop = asyncio.new_event_loop()
-    ports: queue.Queue[int] = queue.Queue()
-    task: dict[str, asyncio.Task[None]] = {}
-
-    def run() -> None:
-        asyncio.set_event_loop(loop)
-        task["serve"] = loop.create_task(server.serve("127.0.0.1", 0, ready=ports.put))
-        with contextlib.suppress(asyncio.CancelledError):
-            loop.run_until_complete(task["serve"])
-        loop.close()
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    try:
-        yield ports.get(timeout=60)
-    finally:
-        loop.call_soon_threadsafe(task["serve"].cancel)
-        thread.join(timeout=30)
-
-
 def test_a_server_batches_requests_from_several_connections_and_answers_bad_ones_in_text(
     tmp_path: Path,
 ) -> None:
@@ -171,7 +143,7 @@ def test_a_server_batches_requests_from_several_connections_and_answers_bad_ones
     observations = {
         slot: {**_observation(rng), "joint_pos": np.zeros(7), "gripper_state": np.zeros(2)} for slot in (0, 1)
     }
-    with serving(server) as port:
+    with on_loopback(server) as port:
         url = f"ws://127.0.0.1:{port}"
         client = RemoteActor(url, image_size=32, replan_steps=1)
         assert client.metadata["server"] == "libero-bench"

@@ -6,20 +6,15 @@ answers a valid request after every bad one, and dozens of clients at once."""
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import logging
-import queue
-import threading
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import msgpack
 import numpy as np
 import pytest
+from bench_helpers import on_loopback
 
 import libero_bench
 from libero_bench.rollouts.actors import BatchActor, Start
@@ -67,29 +62,6 @@ def valid() -> dict[str, Any]:
         "observation/state": np.zeros(8),
         "prompt": "put the bowl on the plate",
     }
-
-
-@contextmanager
-def serving(server: PolicyServer) -> Iterator[int]:
-    """``server`` on a loopback port the system chooses, in a thread; yields the port."""
-    loop = asyncio.new_event_loop()
-    ports: queue.Queue[int] = queue.Queue()
-    task: dict[str, asyncio.Task[None]] = {}
-
-    def run() -> None:
-        asyncio.set_event_loop(loop)
-        task["serve"] = loop.create_task(server.serve("127.0.0.1", 0, ready=ports.put))
-        with contextlib.suppress(asyncio.CancelledError):
-            loop.run_until_complete(task["serve"])
-        loop.close()
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    try:
-        yield ports.get(timeout=60)
-    finally:
-        loop.call_soon_threadsafe(task["serve"].cancel)
-        thread.join(timeout=30)
 
 
 def ask(port: int, message: bytes | str) -> Any:
@@ -154,7 +126,7 @@ def test_every_bad_request_gets_its_sentence_and_the_server_answers_the_next(
 ) -> None:
     caplog.set_level(logging.INFO, logger="libero_bench.rollouts.server")
     server = PolicyServer(Chunks(), {"policy_type": "chunks"})
-    with serving(server) as port:
+    with on_loopback(server) as port:
         for name, (message, says) in BAD.items():
             reply = ask(port, message)
             assert isinstance(reply, str), f"{name}: served as if valid ({reply})"
@@ -175,7 +147,7 @@ def test_an_unexpected_failure_is_one_sentence_with_an_id_the_log_holds_in_full(
     caplog.set_level(logging.INFO, logger="libero_bench.rollouts.server")
     failing = Chunks()
     server = PolicyServer(failing, {"policy_type": "chunks"})
-    with serving(server) as port:
+    with on_loopback(server) as port:
         failing.fail = True  # after the warm-up
         reply = ask(port, pack(valid()))
         failing.fail = False
@@ -192,7 +164,7 @@ def test_a_message_over_the_bound_closes_its_connection_unread(caplog: pytest.Lo
     caplog.set_level(logging.INFO, logger="libero_bench.rollouts.server")
     server = PolicyServer(Chunks(), {"policy_type": "chunks"}, max_message_bytes=1024 * 1024)
     big = entry(image=np.zeros((1024, 1024, 3), np.uint8))  # 3 MiB
-    with serving(server) as port:
+    with on_loopback(server) as port:
         connection, _ = connect(f"ws://127.0.0.1:{port}", timeout=30)
         connection.send(big)
         from websockets.exceptions import ConnectionClosed
@@ -210,7 +182,7 @@ def test_a_message_over_the_bound_closes_its_connection_unread(caplog: pytest.Lo
 def test_the_policy_is_warmed_up_before_the_server_listens() -> None:
     actor = Chunks(warm_up_s=1.0)
     server = PolicyServer(actor, {"policy_type": "chunks", "image_size": 64})
-    with serving(server) as port:
+    with on_loopback(server) as port:
         assert actor.slots == [-1]  # the warm-up's, before any client
         started = time.perf_counter()
         reply = ask(port, pack(valid()))
@@ -234,7 +206,7 @@ def test_dozens_of_clients_at_once_are_all_answered_and_memory_stays_steady() ->
     actor = Chunks()
     server = PolicyServer(actor, {"policy_type": "chunks"})
     clients, requests, rounds = 24, 5, 4
-    with serving(server) as port:
+    with on_loopback(server) as port:
 
         def client(i: int) -> int:
             connection, _ = connect(f"ws://127.0.0.1:{port}", timeout=30)
