@@ -7,7 +7,6 @@ answers a valid request after every bad one, and dozens of clients at once."""
 from __future__ import annotations
 
 import logging
-import time
 from pathlib import Path
 from typing import Any
 
@@ -31,10 +30,9 @@ class Chunks(BatchActor):
 
     chunk_size = 5
 
-    def __init__(self, fail: bool = False, warm_up_s: float = 0.0) -> None:
+    def __init__(self, fail: bool = False) -> None:
         super().__init__()
         self.fail = fail
-        self.warm_up_s = warm_up_s
         self.slots: list[int] = []
         self.passes = 0  # every forward pass, the warm-up's too
 
@@ -47,8 +45,6 @@ class Chunks(BatchActor):
     def act_chunks(self, observations: Any) -> dict[int, np.ndarray]:
         if self.fail:
             raise RuntimeError("the model's weights are on fire")
-        if self.passes == 0 and self.warm_up_s:
-            time.sleep(self.warm_up_s)  # a first pass that builds its kernels
         self.passes += 1
         self.forwards += 1
         self.rows += len(observations)
@@ -180,13 +176,11 @@ def test_a_message_over_the_bound_closes_its_connection_unread(caplog: pytest.Lo
 
 
 def test_the_policy_is_warmed_up_before_the_server_listens() -> None:
-    actor = Chunks(warm_up_s=1.0)
+    actor = Chunks()
     server = PolicyServer(actor, {"policy_type": "chunks", "image_size": 64})
-    with on_loopback(server) as port:
-        assert actor.slots == [-1]  # the warm-up's, before any client
-        started = time.perf_counter()
-        reply = ask(port, pack(valid()))
-        assert time.perf_counter() - started < 0.9 and reply["actions"].shape == (5, 7)
+    with on_loopback(server) as port:  # yields once the server listens
+        assert actor.slots == [-1] and actor.passes == 1  # the warm-up's pass, before any client
+        assert ask(port, pack(valid()))["actions"].shape == (5, 7)
     assert actor.passes == 2 and actor.forwards == 1  # the warm-up's pass is not counted as a client's
 
 
@@ -198,9 +192,9 @@ def _rss_mib() -> float:
 
 
 def test_dozens_of_clients_at_once_are_all_answered_and_memory_stays_steady() -> None:
-    """24 clients x 5 requests at once, four rounds (a bounded load: 480 requests of 0.3 MB, within
-    two minutes): every request answered, batched across connections, and the server's memory (this
-    process's: it runs in a thread here) flat after the first round."""
+    """24 clients x 5 requests at once, four rounds (a bounded load: 480 requests of 0.3 MB, each
+    answered within the client's 60 s): every request answered, batched across connections, and the
+    server's memory (this process's: it runs in a thread here) flat after the first round."""
     from concurrent.futures import ThreadPoolExecutor
 
     actor = Chunks()
@@ -220,11 +214,9 @@ def test_dozens_of_clients_at_once_are_all_answered_and_memory_stays_steady() ->
             return answered
 
         resident = []
-        started = time.monotonic()
         with ThreadPoolExecutor(clients) as pool:
             for _ in range(rounds):
                 assert list(pool.map(client, range(clients))) == [requests] * clients
                 resident.append(_rss_mib())
-        assert time.monotonic() - started < 120
     assert actor.rows == clients * requests * rounds and actor.forwards < actor.rows  # batched
     assert resident[-1] - resident[0] < 20, f"resident memory by round (MiB): {resident}"
