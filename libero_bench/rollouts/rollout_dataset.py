@@ -34,7 +34,9 @@ configs:
 ---
 """
 
-ROLLOUT_CARD = FRONT_MATTER + """
+ROLLOUT_CARD = (
+    FRONT_MATTER
+    + """
 # Evaluation rollouts of a libero-bench run
 
 Every evaluation rollout of the run `{run}` ({algo} + {policy}, preset `{preset}`, seed {seed}):
@@ -47,9 +49,12 @@ epoch (`epoch`; null for the evaluations after later tasks), the phase (`learnin
 `pruned`), the run seed, the init state (`init_index`, `env_seed`) and `success`.
 Each episode has an MCAP log in `mcap/`; the run folder has a Rerun recording per rollout.
 """
+)
 
 
-EVAL_CARD = FRONT_MATTER + """
+EVAL_CARD = (
+    FRONT_MATTER
+    + """
 # Rollouts of a policy evaluation
 
 Every rollout of the evaluation `{run}`: the {policy_type} policy `{policy}` under the {protocol}
@@ -64,6 +69,7 @@ init state i), the init state (`init_index`, `env_seed`) and `success`. Each epi
 log in `mcap/`; the evaluation folder has a Rerun recording per rollout (`libero-bench replay
 EVALUATION --task T`).
 """
+)
 
 
 def _run_card(run_meta: Mapping[str, Any], episodes: int, tasks: int, frames: int) -> str:
