@@ -70,11 +70,13 @@ def lerobot(root: Path, window: int, batch: int, batches: int, workers: int) -> 
     info = json.loads((root / "meta" / "info.json").read_text())
     fps = info["fps"]
     offsets = [i / fps for i in range(window)]
+    from libero_data.record.features import StoredColumns
+
     keys = [
         "observation.images.image",
         "observation.images.wrist_image",
-        "observation.joint_positions",
-        "observation.gripper_state",
+        StoredColumns.of(info["features"]).joints,
+        StoredColumns.of(info["features"]).gripper,
         "action",
     ]
     ds = LeRobotDataset("bench/loading", root=root, delta_timestamps={k: offsets for k in keys})

@@ -33,13 +33,16 @@ def _episodes(run: Path) -> tuple[list[dict[str, Any]], dict[int, tuple[np.ndarr
         for line in (run / "rollouts" / "meta" / "libero_episodes.jsonl").read_text().splitlines()
     ]
     frames: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    from libero_data.record.features import StoredColumns, sim_states
+
     for path in sorted((run / "rollouts" / "data").glob("*/*.parquet")):
-        table = pq.read_table(
-            path, columns=["episode_index", "observation.sim_state", "observation.gripper_state"]
-        )
+        names = pq.read_schema(path).names
+        stored = StoredColumns.of(names)
+        sim, gripper = stored.sim_state, stored.gripper
+        table = pq.read_table(path, columns=["episode_index", sim, gripper])
         index = table.column("episode_index").to_numpy()
-        states = np.array(table.column("observation.sim_state").to_pylist())
-        grip = np.array(table.column("observation.gripper_state").to_pylist())
+        states = sim_states(table.column(sim).to_pylist(), sim)
+        grip = np.array(table.column(gripper).to_pylist())
         for e in np.unique(index):
             frames[int(e)] = (states[index == e], grip[index == e])
     return rows, frames

@@ -36,7 +36,7 @@ from libero_bench.data.batch_keys import (
     WRIST,
 )
 from libero_data.errors import DatasetError, InputError
-from libero_data.record.features import ACTION, OBS_GRIPPER, OBS_JOINTS, camera_keys_of
+from libero_data.record.features import ACTION, GRIPPER, JOINTS, StoredColumns, camera_keys_of
 from libero_data.runtime.files import read_json, read_json_lines
 
 if TYPE_CHECKING:
@@ -44,8 +44,10 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 
-LOWDIM_FEATURES = {JOINT_STATES: OBS_JOINTS, GRIPPER_STATES: OBS_GRIPPER, ACTIONS: ACTION}
-REQUIRED_FEATURES = (OBS_JOINTS, OBS_GRIPPER, ACTION)
+#: The low-dimensional inputs and targets -> their columns (a dataset made before the ``libero.*``
+#: columns keeps the joints and the gripper under ``observation.*``: :class:`StoredColumns`).
+LOWDIM_FEATURES = {JOINT_STATES: JOINTS, GRIPPER_STATES: GRIPPER, ACTIONS: ACTION}
+REQUIRED_FEATURES = (JOINTS, GRIPPER, ACTION)
 #: the policies' camera inputs -> our camera names
 CAMERA_INPUTS = {AGENTVIEW: "agentview", WRIST: "eye_in_hand"}
 
@@ -89,7 +91,10 @@ class DemoDataset:
         features = self.info["features"]
         cameras = camera_keys_of(features)  # either naming profile
         missing = [f"the {c} camera" for c in CAMERA_INPUTS.values() if c not in cameras]
-        missing += [f for f in REQUIRED_FEATURES if f not in features]
+        #: Each required feature's column in this dataset.
+        stored = StoredColumns.of(features)
+        self.columns = {JOINTS: stored.joints, GRIPPER: stored.gripper, ACTION: ACTION}
+        missing += [f for f, column in self.columns.items() if column not in features]
         if missing:
             raise DatasetError(
                 f"{self.root} lacks the feature(s) {', '.join(missing)} that the policies need"
@@ -111,7 +116,7 @@ class DemoDataset:
         request = self.libero_meta.get("request", {})
         self.repo_id = str(request.get("repo_id") or f"local/{self.root.name}")
         self.suite = str(request.get("suite") or self.libero_meta.get("suite") or "")
-        sim_feature = features.get("observation.sim_state", {})
+        sim_feature = features.get(stored.sim_state, {})
         self.sim_state_width = int(
             self.libero_meta.get("sim_state_width") or (sim_feature.get("shape") or [0])[0]
         )
@@ -232,9 +237,10 @@ class DemoDataset:
     def _table(self) -> dict[str, np.ndarray]:
         if self._columns is None:
             hf = self.lerobot.hf_dataset.with_format("numpy")
-            columns = ["episode_index", "timestamp", *LOWDIM_FEATURES.values()]
-            table = hf.select_columns(columns)[:]
-            self._columns = {c: np.asarray(table[c]) for c in columns}
+            stored = {f: self.columns[f] for f in LOWDIM_FEATURES.values()}
+            table = hf.select_columns(["episode_index", "timestamp", *stored.values()])[:]
+            self._columns = {c: np.asarray(table[c]) for c in ("episode_index", "timestamp")}
+            self._columns.update({f: np.asarray(table[column]) for f, column in stored.items()})
         return self._columns
 
     def load_episode(self, episode: int, image_size: int | None = None) -> EpisodeFrames:
@@ -266,8 +272,8 @@ class DemoDataset:
         return EpisodeFrames(
             agentview=images[AGENTVIEW].contiguous(),
             wrist=images[WRIST].contiguous(),
-            joint_states=table[OBS_JOINTS][rows].astype(np.float32),
-            gripper_states=table[OBS_GRIPPER][rows].astype(np.float32),
+            joint_states=table[JOINTS][rows].astype(np.float32),
+            gripper_states=table[GRIPPER][rows].astype(np.float32),
             actions=table[ACTION][rows].astype(np.float32),
         )
 

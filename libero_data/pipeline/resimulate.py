@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from libero_data.pipeline.findings import Issue, Report
-from libero_data.record.features import ACTION, OBS_SIM_STATE, OBS_SIM_STATE_DIM
+from libero_data.record.features import ACTION, StoredColumns, sim_states
 
 
 def resimulate_episodes(
@@ -245,10 +245,12 @@ def stored_episode(root: Path, info: dict[str, Any], ep: dict[str, Any]) -> tupl
     import pyarrow.parquet as pq
 
     rel = info["data_path"].format(chunk_index=ep["data/chunk_index"], file_index=ep["data/file_index"])
-    table = pq.read_table(root / rel, columns=["episode_index", ACTION, OBS_SIM_STATE, OBS_SIM_STATE_DIM])
+    stored = StoredColumns.of(info["features"])
+    sim, sim_dim = stored.sim_state, stored.sim_state_dim
+    table = pq.read_table(root / rel, columns=["episode_index", ACTION, sim, sim_dim])
     mask = table.column("episode_index").to_numpy() == ep["episode_index"]
     actions = np.stack(table.column(ACTION).to_numpy(zero_copy_only=False)[mask]).astype(np.float32)
-    states = np.stack(table.column(OBS_SIM_STATE).to_numpy(zero_copy_only=False)[mask])
-    dims = table.column(OBS_SIM_STATE_DIM).to_numpy(zero_copy_only=False)[mask]
+    states = sim_states(np.stack(table.column(sim).to_numpy(zero_copy_only=False)[mask]), sim)
+    dims = table.column(sim_dim).to_numpy(zero_copy_only=False)[mask]
     dim = int(np.asarray(dims[0]).reshape(-1)[0])
     return actions, states[:, :dim]

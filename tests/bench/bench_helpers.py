@@ -94,3 +94,17 @@ def on_loopback(server: PolicyServer) -> Iterator[int]:
     finally:
         loop.call_soon_threadsafe(task["serve"].cancel)
         thread.join(timeout=30)
+
+
+@contextmanager
+def serving(policy: Path) -> Iterator[str]:
+    """``libero-bench serve`` of ``policy`` (a run or a LeRobot folder) in this process, on loopback;
+    yields its address."""
+    from libero_bench.rollouts.server import served_policy
+
+    server = served_policy(str(policy), "cpu")
+    try:
+        with on_loopback(server) as port:
+            yield f"ws://127.0.0.1:{port}"
+    finally:
+        server.actor.close()

@@ -55,10 +55,10 @@ def test_windows_lie_inside_one_episode_and_match_the_data(tiny_dataset: Path) -
     rows = [reference[i] for i in range(last, last + WINDOW)]
     np.testing.assert_array_equal(sample["actions"].numpy(), np.stack([r["action"].numpy() for r in rows]))
     np.testing.assert_array_equal(
-        sample["joint_states"].numpy(), np.stack([r["observation.joint_positions"].numpy() for r in rows])
+        sample["joint_states"].numpy(), np.stack([r["libero.joint_positions"].numpy() for r in rows])
     )
     np.testing.assert_array_equal(
-        sample["gripper_states"].numpy(), np.stack([r["observation.gripper_state"].numpy() for r in rows])
+        sample["gripper_states"].numpy(), np.stack([r["libero.gripper_state"].numpy() for r in rows])
     )
     decoded = sample["agentview"].float() / 255.0
     expected = torch.stack([r["observation.images.image"] for r in rows])

@@ -356,7 +356,7 @@ def test_a_run_killed_in_the_middle_of_a_task_goes_on_with_the_same_results(
 
     ours = datasets.load_dataset(str(out / "rollouts"), split="train")
     theirs = datasets.load_dataset(str(bench_run / "rollouts"), split="train")
-    for column in ("action", "observation.state", "observation.sim_state"):
+    for column in ("action", "observation.state", "libero.sim_state"):
         np.testing.assert_array_equal(np.array(ours[column]), np.array(theirs[column]))
     assert not list((out / ".work").glob("**/*.tmp-*"))
 
@@ -386,7 +386,7 @@ def test_ray_executor_gives_the_same_results(bench_run: Path, tiny_dataset: Path
 
     ours = datasets.load_dataset(str(out / "rollouts"), split="train")
     theirs = datasets.load_dataset(str(bench_run / "rollouts"), split="train")
-    for column in ("action", "observation.state", "observation.sim_state"):
+    for column in ("action", "observation.state", "libero.sim_state"):
         np.testing.assert_array_equal(np.array(ours[column]), np.array(theirs[column]))
     assert not list((out / ".work").glob("**/*.tmp*"))
 

@@ -222,3 +222,36 @@ def test_lerobot_batches_give_every_rollout_the_start_libero_bench_gives_it(
                     seen[r] = (index, seed)
         vector.close()
         assert seen == expected, f"batch size {n_envs}"
+
+
+@pytest.mark.sim
+@pytest.mark.slow  # lerobot-train, then openpi's own loop against libero-bench serve
+def test_a_policy_lerobot_trains_on_our_data_serves_openpis_own_client(
+    tiny_dataset: Path, tmp_path: Path
+) -> None:
+    """Issue 75: every observation.* column of our datasets is one openpi's LIBERO request carries,
+    so ACT trained by lerobot-train on them declares those inputs only, and openpi's loop (its
+    client's requests, chunks of 5) runs two short episodes against libero-bench serve of it."""
+    from bench_helpers import serving
+
+    from benchmarks.openpi_loop import Client, run_openpi_loop
+    from libero_data.tasks import get_task
+
+    act = _train(tiny_dataset, tmp_path / "act", ACT)
+    config = json.loads((act / "config.json").read_text())
+    assert set(config["input_features"]) == {
+        "observation.images.image",
+        "observation.images.wrist_image",
+        "observation.state",
+    }
+    steps = 6
+    with serving(act) as url:
+        assert Client(url).metadata["inputs"] == [
+            "observation/image",
+            "observation/wrist_image",
+            "observation/state",
+            "prompt",
+        ]
+        episodes = run_openpi_loop(url, get_task("libero_goal/0"), 2, steps)
+    assert [len(e["actions"]) for e in episodes] == [steps, steps]
+    assert all(np.all(np.isfinite(e["actions"])) for e in episodes)

@@ -16,7 +16,7 @@ from libero_bench.rollouts.actors import Observations, PolicyActor
 from libero_bench.rollouts.jobs import EvalTask, RolloutJob, make_job
 from libero_bench.rollouts.loop import RolloutResources
 from libero_bench.runs.folder import HELDOUT, STORED
-from libero_data.record.features import OBS_SIM_STATE
+from libero_data.record.features import SIM_STATE
 from libero_data.seeding import heldout_starts
 from libero_data.tasks import get_task
 
@@ -95,6 +95,6 @@ def test_one_batched_pass_per_step_and_the_same_starts_with_batch_sizes_1_and_3(
     for job in jobs_of(tmp_path):
         alone, batched = (tmp_path / f"b{b}" / job.shard_dir for b in (1, 3))
         # Rollout r starts from the same state, bit for bit, whatever the batch size.
-        np.testing.assert_array_equal(frames(alone, OBS_SIM_STATE)[0], frames(batched, OBS_SIM_STATE)[0])
+        np.testing.assert_array_equal(frames(alone, SIM_STATE)[0], frames(batched, SIM_STATE)[0])
         # The actions agree up to the last bits a batched matrix product may change.
         np.testing.assert_allclose(frames(alone, "action")[0], frames(batched, "action")[0], atol=1e-4)

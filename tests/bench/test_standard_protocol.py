@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import asyncio
 import json
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
 import datasets
 import numpy as np
 import pytest
+from bench_helpers import serving
 from lerobot_policies import save_policy
 
 from benchmarks.openpi_loop import Client, RecordingServer, openpi_resize, run_openpi_loop
@@ -105,37 +103,6 @@ def test_the_standard_protocol_sends_what_openpis_loop_sends(tmp_path: Path) -> 
     assert {(r["start"], r["env_seed"]) for r in records} == {("standard", 7)}
     report = (tmp_path / "eval" / "report.md").read_text()
     assert "**not the standard**" in report and "a step limit of 12 instead of the suite's" in report
-
-
-@contextmanager
-def serving(policy: Path) -> Iterator[str]:
-    """``libero-bench serve`` of ``policy`` in this process, on a port the system chose."""
-    from libero_bench.rollouts.server import served_policy
-
-    server = served_policy(str(policy), "cpu")
-    ready = threading.Event()
-    url: list[str] = []
-    loop = asyncio.new_event_loop()
-
-    def bound(port: int) -> None:
-        url.append(f"ws://127.0.0.1:{port}")
-        ready.set()
-
-    def run() -> None:
-        task = loop.create_task(server.serve("127.0.0.1", 0, ready=bound))
-        with suppress(asyncio.CancelledError):
-            loop.run_until_complete(task)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    assert ready.wait(60), "the server did not start"
-    try:
-        yield url[0]
-    finally:
-        for pending in asyncio.all_tasks(loop):
-            loop.call_soon_threadsafe(pending.cancel)
-        thread.join(30)
-        server.actor.close()
 
 
 def _executed(folder: Path) -> dict[int, np.ndarray]:

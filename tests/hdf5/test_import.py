@@ -119,7 +119,7 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
     from libero_data.hdf5.fixtures import fixture_poses, place_fixtures
     from libero_data.pipeline.importer import import_hdf5
     from libero_data.pipeline.validate import validate
-    from libero_data.record.features import ACTION, OBS_IMAGE, OBS_SIM_STATE
+    from libero_data.record.features import ACTION, OBS_IMAGE, SIM_STATE, sim_states
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.tasks import get_task
 
@@ -162,7 +162,7 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
             keep[-1] = True
             mine = frames.filter(lambda r, e=e: r["episode_index"] == e)
             width = states.shape[1]
-            assert np.array_equal(np.array(mine[OBS_SIM_STATE])[:, :width], states[keep])
+            assert np.array_equal(sim_states(mine[SIM_STATE])[:, :width], states[keep])
             assert np.array_equal(np.array(mine[ACTION]), actions[keep].astype(np.float32))
             assert row["init_index"] == ep.init_index and row["demonstrator"].startswith("human")
             assert row["source_file"] == path.name and row["noops_dropped"] == int((~keep).sum())

@@ -6,11 +6,21 @@ import json
 from pathlib import Path
 from typing import Any
 
+import datasets
 import numpy as np
 import pytest
+import torch
 import yaml
 
-from libero_data.record.features import ACTION, OBS_IMAGE, OBS_SIM_STATE, OBS_STATE, OBS_WRIST_IMAGE
+from libero_data.record.features import (
+    ACTION,
+    OBS_IMAGE,
+    OBS_STATE,
+    OBS_WRIST_IMAGE,
+    SIM_STATE,
+    SIM_STATE_DIM,
+    sim_states,
+)
 
 pytestmark = pytest.mark.sim
 
@@ -42,9 +52,35 @@ def test_lerobot_dataset_gives_decoded_frames_with_language(tiny_dataset: Path) 
             assert tuple(image.shape) == (3, 64, 64)
             assert float(image.min()) >= 0.0 and float(image.max()) <= 1.0 and float(image.std()) > 0.02
     assert first["task"] != last["task"]
-    dim = int(first["observation.sim_state_dim"])
-    assert 50 < dim <= first[OBS_SIM_STATE].shape[0]
-    assert np.all(first[OBS_SIM_STATE].numpy()[dim:] == 0)
+    dim = int(first[SIM_STATE_DIM])
+    assert 50 < dim <= first[SIM_STATE].shape[0]
+    assert np.all(first[SIM_STATE].numpy()[dim:] == 0)
+    # Through LeRobotDataset as through datasets: the MuJoCo state exactly (float64 bit for bit).
+    assert first[SIM_STATE].dtype == torch.int64
+    table = datasets.load_dataset(str(tiny_dataset), split="train")
+    np.testing.assert_array_equal(sim_states(first[SIM_STATE]), sim_states([table[0][SIM_STATE]]).reshape(-1))
+    assert np.all(np.isfinite(sim_states(first[SIM_STATE]))) and np.any(
+        sim_states(first[SIM_STATE])[:dim] != 0
+    )
+
+
+def test_lerobot_makes_only_what_a_libero_policy_reads_its_inputs(tiny_dataset: Path) -> None:
+    """LeRobot makes every observation.* column an input of the policy it trains (issue 75): ours are
+    the two cameras and the 8-D state, what openpi's LIBERO request carries; the rest is libero.*."""
+    from lerobot.utils.feature_utils import dataset_to_policy_features
+
+    features = json.loads((tiny_dataset / "meta" / "info.json").read_text())["features"]
+    for spec in features.values():
+        spec["shape"] = tuple(spec["shape"])
+    inputs = {k for k, f in dataset_to_policy_features(features).items() if f.type.name != "ACTION"}
+    assert inputs == {OBS_IMAGE, OBS_WRIST_IMAGE, OBS_STATE}
+    assert {
+        "libero.joint_positions",
+        "libero.gripper_state",
+        "libero.eef_pose",
+        SIM_STATE,
+        SIM_STATE_DIM,
+    } <= set(features)
 
 
 def test_card_has_hugging_face_metadata_and_the_task_table(tiny_dataset: Path) -> None:

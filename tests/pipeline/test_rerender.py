@@ -62,7 +62,7 @@ def test_rerender_gives_the_same_episodes_at_256_with_lerobots_names_and_fast_im
     assert not report.issues and report.resimulated_ok == 1
     # The same episodes: actions and states frame by frame, in the same order.
     ours, theirs = data_table(out), data_table(tiny_dataset)
-    for column in ("action", "observation.sim_state", "observation.state", "episode_index", "task_index"):
+    for column in ("action", "libero.sim_state", "observation.state", "episode_index", "task_index"):
         assert np.array_equal(np.array(ours[column].to_pylist()), np.array(theirs[column].to_pylist())), (
             column
         )

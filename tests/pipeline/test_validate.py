@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -83,7 +84,11 @@ def _shift_stored_state(root: Path, episode: int, frame: int, by: float) -> None
             if e == episode and f == frame
         ]
         if hits:
-            rows["observation.sim_state"][hits[0]][1] += by  # qpos[0], the arm's first joint
+            from libero_data.record.features import SIM_STATE, sim_states
+
+            states = sim_states([rows[SIM_STATE][hits[0]]])  # float64, bit for bit
+            states[0, 1] += by  # qpos[0], the arm's first joint
+            rows[SIM_STATE][hits[0]] = states.view(np.int64)[0].tolist()
             pq.write_table(pa.Table.from_pydict(rows, schema=table.schema), path)
             return
     raise AssertionError(f"no frame {frame} of episode {episode}")
