@@ -148,6 +148,7 @@ RUN = Path(__file__).resolve().parents[2] / "benchmarks/results/robustness_data/
 
 
 @pytest.mark.sim
+@pytest.mark.slow  # ~1 min: a run served and evaluated, then evaluated locally; scripts/test runs it after the default suite
 def test_a_run_served_under_the_standard_protocol_acts_as_it_does_locally(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
