@@ -72,11 +72,12 @@ def lerobot(root: Path, window: int, batch: int, batches: int, workers: int) -> 
     offsets = [i / fps for i in range(window)]
     from libero_data.record.features import StoredColumns
 
+    stored = StoredColumns.of(info["features"])
     keys = [
         "observation.images.image",
         "observation.images.wrist_image",
-        StoredColumns.of(info["features"]).joints,
-        StoredColumns.of(info["features"]).gripper,
+        stored.joints,
+        stored.gripper,
         "action",
     ]
     ds = LeRobotDataset("bench/loading", root=root, delta_timestamps={k: offsets for k in keys})

@@ -194,22 +194,14 @@ def _jobs(
     return jobs
 
 
-def _needs(source: PolicySource) -> list[str]:
-    """The observations a local policy reads beyond openpi's four entries (the gripper's fingers
-    come from openpi's state)."""
-    from libero_bench.rollouts.observations import EXTRA_ENTRIES
-
-    return [k for k in source.reads if k in EXTRA_ENTRIES and k != "gripper_state"]
-
-
 def beyond_openpi(source: PolicySource) -> list[str]:
     """The request entries a standard evaluation sends beyond openpi's four: what the policy
     reads (a local one) or what the server's metadata asks for (a served one)."""
-    from libero_bench.rollouts.observations import EXTRA_ENTRIES
+    from libero_bench.rollouts.observations import EXTRA_ENTRIES, extra_needs
 
     if source.kind == SERVER:
         return list(source.inputs.get("beyond_openpi", []))
-    return [EXTRA_ENTRIES[k] for k in _needs(source)]
+    return [EXTRA_ENTRIES[k] for k in extra_needs(source.reads)]
 
 
 def _groups(
@@ -217,7 +209,7 @@ def _groups(
 ) -> list[Group]:
     """The jobs grouped by the actor that acts for them (a run's per-task evaluation view), each
     actor wrapped in the protocol's request mapping where it runs here."""
-    from libero_bench.rollouts.observations import OBSERVATION_KEYS, RequestView
+    from libero_bench.rollouts.observations import OBSERVATION_KEYS, RequestView, extra_needs
 
     def opener(view: int | None) -> Callable[[str], Any]:
         def open_actor(device: str) -> Any:
@@ -232,7 +224,7 @@ def _groups(
                     "cannot carry; evaluate it under the libero-bench protocol",
                     field="protocol",
                 )
-            needs = _needs(source)
+            needs = extra_needs(source.reads)
             size = source.render_size if source.kind == RUN else None
             return RequestView(actor, sent_size=request.image_size or 224, image_size=size, needs=needs)
 

@@ -53,6 +53,14 @@ OBSERVATION_KEYS = {
 }
 #: Our observations -> the request entry that carries each beyond openpi's four.
 EXTRA_ENTRIES = {"joint_pos": JOINTS, "gripper_state": GRIPPER}
+
+
+def extra_needs(reads: Sequence[str]) -> list[str]:
+    """Of the observations a policy reads, those openpi's four entries do not carry (the arm's
+    joints; the gripper's fingers come from openpi's state)."""
+    return [k for k in reads if k in EXTRA_ENTRIES and k != "gripper_state"]
+
+
 #: The shape each vector entry of a request must have: openpi's state (end-effector position,
 #: axis-angle, the gripper's two finger joints), the arm's seven joints, the two finger joints.
 VECTOR_SHAPES = {STATE: (8,), JOINTS: (7,), GRIPPER: (2,)}
@@ -179,8 +187,8 @@ def environment_observation(
             if key in ("agentview", "eye_in_hand") and image_size and value.shape[:2] != (image_size,) * 2:
                 value = resize_with_pad(value, image_size)
             obs[key] = value
-    if "gripper_state" not in obs and np.asarray(obs["state"]).shape == (8,):
-        obs["gripper_state"] = np.asarray(obs["state"])[6:8]  # the state's last two entries
+    if "gripper_state" not in obs:  # the state (checked: 8 entries) ends with the two fingers
+        obs["gripper_state"] = obs["state"][6:8]
     lacking = [EXTRA_ENTRIES.get(k, k) for k in needs if k not in obs]
     if lacking:
         raise InputError(

@@ -41,6 +41,7 @@ from libero_bench.rollouts.observations import (
     EXTRA_ENTRIES,
     OPENPI_KEYS,
     environment_observation,
+    extra_needs,
 )
 from libero_bench.rollouts.remote import ACK, CONTROL, EPISODE_END, EPISODE_START
 from libero_bench.rollouts.wire import pack, unpack
@@ -316,7 +317,7 @@ def served_policy(
         "versions": versions(),
     }
     embed = source.embed
-    needs = tuple(k for k in source.reads if k in EXTRA_ENTRIES and k != "gripper_state")
+    needs = tuple(extra_needs(source.reads))
     return PolicyServer(
         actor,
         metadata,
