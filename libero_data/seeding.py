@@ -20,6 +20,7 @@ evaluation rollout ``r``, stored start ``rollout_start(r, stored init states)``
 evaluation rollout ``r``, held out     ``heldout_starts(task key, n, avoid)[r]``
 a sampler start's arm pose             ``arm_noise_rng(reset seed)``
 a sampling policy's noise (evaluation) ``policy_noise_seed(rollout key, chunk)``
+reinforcement-learning start ``n``     ``training_start(seed, task key, n, stored init states)``
 =====================================  ============================================================
 
 An episode's two seeds are a *reset seed* (LIBERO places fixtures, and objects where no
@@ -43,6 +44,9 @@ CANDIDATE_EXPERT = 1000
 HELDOUT_TAG = 0x4E1D0
 #: The tag of the stream that draws a sampler start's arm-joint noise from its reset seed.
 ARM_NOISE_TAG = 0xA4A
+#: The tag of the stream a reinforcement-learning environment draws its starts from (apart from
+#: the held-out evaluation stream, so a policy trained there is evaluated elsewhere).
+TRAINING_TAG = 0x7EA1
 
 
 def stable_hash(text: str) -> int:
@@ -110,6 +114,16 @@ def rollout_start(rollout: int, stored: int) -> tuple[int, int]:
     ``stored`` init states; index -1 where there are none (objects placed from the seed).
     The same for every epoch and checkpoint, so evaluations compare like with like."""
     return (rollout % stored if stored > 0 else -1), rollout
+
+
+def training_start(seed: int, task_key: str, n: int, stored: int) -> tuple[int, int]:
+    """(init state index, reset seed) of start ``n`` of a reinforcement-learning environment
+    seeded with ``seed``: a stored init state drawn uniformly (index -1 where ``stored`` is 0:
+    LIBERO's sampler places the objects from the reset seed)."""
+    a, b = np.random.SeedSequence(
+        [int(seed) & 0xFFFFFFFFFFFFFFFF, TRAINING_TAG, stable_hash(task_key), n]
+    ).generate_state(2)
+    return (int(a) % stored if stored > 0 else -1), int(b)
 
 
 def policy_noise_seed(rollout_key: str, chunk: int) -> int:

@@ -171,6 +171,7 @@ ROOMS = {
         "algos",
         "runs",
         "rollouts",
+        "rl",
         "train",
         "evaluation",
         "analysis",
