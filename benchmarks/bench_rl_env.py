@@ -1,0 +1,143 @@
+"""The RL environment's speed and memory against RLinf's ``LiberoEnv``, same machine, same task.
+
+Each environment runs ``--calls`` chunk calls of ``--chunk`` zero-mean actions (the arm sways, so
+the frames are not of a still scene) on ``--task`` at 256 px with full rendering (LIBERO's pixels),
+episodes cut at ``--max-steps`` and reset automatically, as an RL rollout runs. Measured at 1, 2
+and 4 environments and chunks of 5 and 10:
+
+- ours: :class:`libero_bench.rl.vector.LiberoVectorEnv` (one worker process per core, at most one
+  per environment; the first reset, which builds the scenes, is not timed);
+- RLinf's ``LiberoEnv`` (``benchmarks/peers/rlinf_env_run.py`` in the peers' own environment,
+  made by ``benchmarks/peers/make_envs.sh``: one process per environment; its first reset is not
+  timed either). Left out without ``--rlinf``.
+
+Environment steps per second (all environments together), and resident memory per environment
+(the environment processes' VmRSS summed, over the number of environments; the driver left out on
+both sides: it holds the policy).
+
+    python -m benchmarks.bench_rl_env --rlinf .cache/peers/rlinf/bin/python --results
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def sway(envs: int, chunk: int, call: int) -> Any:
+    """The actions of one call: the arm sways along x, the gripper stays open."""
+    import numpy as np
+
+    t = call * chunk + np.arange(chunk)
+    actions = np.zeros((envs, chunk, 7))
+    actions[:, :, 0] = 0.3 * np.sin(t / 7.0)
+    actions[:, :, 6] = -1.0
+    return actions
+
+
+def measure_ours(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, Any]:
+    from benchmarks.results import status_mib
+    from libero_bench.rl.vector import LiberoVectorEnv
+
+    env = LiberoVectorEnv(
+        args.task, envs, chunk=chunk, image_size=args.image_size, max_episode_steps=args.max_steps
+    )
+    try:
+        env.reset(seed=0)
+        steps = episodes = 0
+        started = time.perf_counter()
+        for call in range(args.calls):
+            _obs, _reward, terminated, truncated, info = env.step(sway(envs, chunk, call))
+            steps += int(info["steps"].sum())
+            episodes += int((terminated | truncated).sum())
+        seconds = time.perf_counter() - started
+        rss = sum(status_mib(pid, "VmRSS") for pid in env.worker_pids())
+    finally:
+        env.close()
+    return {"steps": steps, "episodes": episodes, "seconds": seconds, "mib_per_env": rss / envs}
+
+
+def measure_rlinf(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, Any]:
+    command = [
+        args.rlinf,
+        str(ROOT / "benchmarks" / "peers" / "rlinf_env_run.py"),
+        "--task",
+        args.task,
+        "--envs",
+        str(envs),
+        "--chunk",
+        str(chunk),
+        "--calls",
+        str(args.calls),
+        "--max-steps",
+        str(args.max_steps),
+        "--image-size",
+        str(args.image_size),
+    ]
+    done = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return result
+
+
+def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
+    lines = [
+        f"`{args.task}`, {args.image_size} px full rendering, {args.calls} chunk calls per environment, "
+        f"episodes cut at {args.max_steps} steps and reset automatically; no policy (the environments alone).",
+        "",
+        "| environments | chunk | RLinf steps/s | ours steps/s | ours ÷ RLinf | RLinf MiB/env | ours MiB/env |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for row in rows:
+        ours, peer = row["ours"], row.get("rlinf")
+        ours_rate = ours["steps"] / ours["seconds"]
+        if peer:
+            peer_rate = peer["steps"] / peer["seconds"]
+            cells = [f"{peer_rate:.1f}", f"{ours_rate:.1f}", f"**{ours_rate / peer_rate:.2f}×**"]
+            memory = [f"{peer['mib_per_env']:.0f}", f"{ours['mib_per_env']:.0f}"]
+        else:
+            cells, memory = ["", f"{ours_rate:.1f}", ""], ["", f"{ours['mib_per_env']:.0f}"]
+        lines.append(f"| {row['envs']} | {row['chunk']} | " + " | ".join(cells + memory) + " |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--task", default="libero_object/0")
+    parser.add_argument("--envs", default="1,2,4", help="Numbers of environments, comma-separated.")
+    parser.add_argument("--chunks", default="5,10", help="Chunk sizes, comma-separated.")
+    parser.add_argument("--calls", type=int, default=60, help="Chunk calls per measurement.")
+    parser.add_argument("--max-steps", type=int, default=280, help="Episode length (libero_object's limit).")
+    parser.add_argument("--image-size", type=int, default=256)
+    parser.add_argument("--rlinf", default="", help="The peers' RLinf environment's python.")
+    parser.add_argument("--results", action="store_true", help="Replace this benchmark's section of RESULTS.md.")
+    args = parser.parse_args()
+    rows = []
+    for envs in (int(n) for n in args.envs.split(",")):
+        for chunk in (int(c) for c in args.chunks.split(",")):
+            row: dict[str, Any] = {"envs": envs, "chunk": chunk}
+            if args.rlinf:
+                row["rlinf"] = measure_rlinf(args, envs, chunk)
+            row["ours"] = measure_ours(args, envs, chunk)
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    body = table(rows, args)
+    print(body)
+    if args.results:
+        from benchmarks.results import replace_section
+
+        replace_section(ROOT / "benchmarks" / "RESULTS.md", "RL environment: against RLinf's LiberoEnv", body)
+
+
+if __name__ == "__main__":
+    main()
