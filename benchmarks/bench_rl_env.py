@@ -112,7 +112,9 @@ def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--task", default="libero_object/0")
     parser.add_argument("--envs", default="1,2,4", help="Numbers of environments, comma-separated.")
     parser.add_argument("--chunks", default="5,10", help="Chunk sizes, comma-separated.")
@@ -120,7 +122,9 @@ def main() -> None:
     parser.add_argument("--max-steps", type=int, default=280, help="Episode length (libero_object's limit).")
     parser.add_argument("--image-size", type=int, default=256)
     parser.add_argument("--rlinf", default="", help="The peers' RLinf environment's python.")
-    parser.add_argument("--results", action="store_true", help="Replace this benchmark's section of RESULTS.md.")
+    parser.add_argument(
+        "--results", action="store_true", help="Replace this benchmark's section of RESULTS.md."
+    )
     args = parser.parse_args()
     rows = []
     for envs in (int(n) for n in args.envs.split(",")):

@@ -43,7 +43,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from libero_bench.rl.host import EpisodeStart, HostSettings, SlotReply, make_chunk_host
+from libero_bench.rl.host import EpisodeStart, HostSettings, SlotReply, lean_worker, make_chunk_host
 from libero_data.errors import InputError
 
 #: LeRobot's LIBERO pixel keys for our cameras (``observation.images.image``, ``...image2``).
@@ -97,7 +97,10 @@ class LiberoVectorEnv(VectorEnv):
         workers = min(num_envs, workers or os.cpu_count() or 1)
         self._slots = [list(block) for block in np.array_split(np.arange(num_envs), workers)]
         self._pool = ActorPool(
-            JobPlacement("local", workers), Path.cwd(), partial(make_chunk_host, self.settings)
+            JobPlacement("local", workers),
+            Path.cwd(),
+            partial(make_chunk_host, self.settings),
+            setup=lean_worker,  # worker processes only: this process's MuJoCo is left as it is
         )
         self._seed = 0
         self._episodes = np.zeros(num_envs, dtype=np.int64)  # episodes begun per environment

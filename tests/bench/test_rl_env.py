@@ -44,6 +44,7 @@ class FakeEnv:
 def _host(success_at: int, max_steps: int) -> tuple[ChunkHost, FakeEnv]:
     host = ChunkHost(HostSettings(task=TASK, cameras=("agentview",), max_steps=max_steps))
     fake = host.envs[0] = FakeEnv(success_at)
+    host.own_cameras = True  # the stand-in draws its own images
     host.reset({0: EpisodeStart(0, -1, 11)})
     return host, fake
 
@@ -164,24 +165,28 @@ def test_bad_actions_get_one_sentence(grouped: Any) -> None:
 
 
 @pytest.mark.sim
-def test_stored_starts_are_libero_init_states() -> None:
+def test_stored_starts_are_libero_init_states_drawn_as_robosuite_draws() -> None:
     from libero_bench.rl.vector import LiberoVectorEnv
     from libero_data.sim import EnvConfig, LiberoEnv
     from libero_data.tasks import get_task
 
+    # two environments in this process: they share one GL context
     env = LiberoVectorEnv(
-        TASK, 1, starts="stored", image_size=32, cameras=("agentview",), workers=1, settle=0
+        TASK, 2, starts="stored", image_size=32, cameras=("agentview",), workers=1, settle=0
     )
     try:
         obs, info = env.reset(seed=2)
     finally:
         env.close()
-    index, seed = training_start(2, env.task_key, 0, 50)
-    assert (info["init_index"][0], info["reset_seed"][0]) == (index, seed) and set(obs["pixels"]) == {"image"}
-    with LiberoEnv(TASK, EnvConfig(image_size=32, cameras=("agentview",))) as direct:
-        expected = direct.reset(get_task(TASK).init_states()[index], seed=seed)
-    assert np.array_equal(obs["agent_pos"][0], expected["state"])
-    assert np.array_equal(obs["pixels"]["image"][0], expected["agentview"])
+    assert set(obs["pixels"]) == {"image"}
+    stored = get_task(TASK).init_states()
+    with LiberoEnv(TASK, EnvConfig(image_size=32, cameras=("agentview",))) as direct:  # robosuite's cameras
+        for i in range(2):
+            index, seed = training_start(2, env.task_key, i, 50)
+            assert (info["init_index"][i], info["reset_seed"][i]) == (index, seed)
+            expected = direct.reset(stored[index], seed=seed)
+            assert np.array_equal(obs["agent_pos"][i], expected["state"])
+            assert np.array_equal(obs["pixels"]["image"][i], expected["agentview"])
 
 
 @pytest.mark.slow
