@@ -1,8 +1,10 @@
 """The RL environment's speed and memory against RLinf's ``LiberoEnv``, same machine, same task.
 
-Each environment runs ``--calls`` chunk calls of ``--chunk`` zero-mean actions (the arm sways, so
-the frames are not of a still scene) on ``--task`` at 256 px with full rendering (LIBERO's pixels),
-episodes cut at ``--max-steps`` and reset automatically, as an RL rollout runs. Measured at 1, 2
+Each environment runs ``--calls`` chunk calls of ``--chunk`` actions (no motion, the gripper
+open: the RLinf adapter's) on ``--task`` at 256 px with full rendering (LIBERO's pixels), episodes
+cut at ``--max-steps`` and reset automatically, as an RL rollout runs; no policy (the environments
+alone). RLinf's protocol beside ours: it draws every step of a chunk (ours the chunk's last),
+settles 15 steps after a reset (ours 10) and runs its evaluations past success. Measured at 1, 2
 and 4 environments and chunks of 5 and 10:
 
 - ours: :class:`libero_bench.rl.vector.LiberoVectorEnv` (one worker process per core, at most one
@@ -33,13 +35,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def sway(envs: int, chunk: int, call: int) -> Any:
-    """The actions of one call: the arm sways along x, the gripper stays open."""
+def still(envs: int, chunk: int) -> Any:
+    """The actions of one call, the adapter's for RLinf: no motion, the gripper open."""
     import numpy as np
 
-    t = call * chunk + np.arange(chunk)
     actions = np.zeros((envs, chunk, 7))
-    actions[:, :, 0] = 0.3 * np.sin(t / 7.0)
     actions[:, :, 6] = -1.0
     return actions
 
@@ -55,8 +55,9 @@ def measure_ours(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, A
         env.reset(seed=0)
         steps = episodes = 0
         started = time.perf_counter()
-        for call in range(args.calls):
-            _obs, _reward, terminated, truncated, info = env.step(sway(envs, chunk, call))
+        actions = still(envs, chunk)
+        for _call in range(args.calls):
+            _obs, _reward, terminated, truncated, info = env.step(actions)
             steps += int(info["steps"].sum())
             episodes += int((terminated | truncated).sum())
         seconds = time.perf_counter() - started
@@ -67,27 +68,32 @@ def measure_ours(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, A
 
 
 def measure_rlinf(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, Any]:
+    suite, _, task = args.task.rpartition("/")
     command = [
         args.rlinf,
         str(ROOT / "benchmarks" / "peers" / "rlinf_env_run.py"),
-        "--task",
-        args.task,
-        "--envs",
-        str(envs),
-        "--chunk",
-        str(chunk),
-        "--calls",
-        str(args.calls),
-        "--max-steps",
-        str(args.max_steps),
-        "--image-size",
-        str(args.image_size),
+        *("--suite", suite, "--task", task, "--num-envs", str(envs), "--chunk-size", str(chunk)),
+        *(
+            "--chunk-steps",
+            str(args.calls),
+            "--max-steps",
+            str(args.max_steps),
+            "--size",
+            str(args.image_size),
+        ),
     ]
     done = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
-    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
-    return result
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    per_env = result["rss_mib_per_env_process"]
+    return {
+        "steps": result["env_steps"],
+        "episodes": result["episodes_finished"],
+        "seconds": result["loop_s"],
+        "mib_per_env": sum(per_env) / len(per_env),
+        "version": f"rlinf {result['version']}, rlinf-libero {result['rlinf_libero_version']}",
+    }
 
 
 def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
@@ -108,6 +114,9 @@ def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
         else:
             cells, memory = ["", f"{ours_rate:.1f}", ""], ["", f"{ours['mib_per_env']:.0f}"]
         lines.append(f"| {row['envs']} | {row['chunk']} | " + " | ".join(cells + memory) + " |")
+    peers = sorted({row["rlinf"]["version"] for row in rows if row.get("rlinf")})
+    if peers:
+        lines += ["", f"Peer: {', '.join(peers)} (its own environment, `benchmarks/peers/make_envs.sh`)."]
     return "\n".join(lines)
 
 
