@@ -18,6 +18,7 @@ Environment steps per second (all environments together), and resident memory pe
 both sides: it holds the policy).
 
     python -m benchmarks.bench_rl_env --rlinf .cache/peers/rlinf/bin/python --results
+    python -m benchmarks.bench_rl_env --memory-episodes 2000   # memory over 2,000 resets, ours
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import argparse
 import json
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -45,6 +47,22 @@ def still(envs: int, chunk: int) -> Any:
 
 
 def measure_ours(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, Any]:
+    """Ours, in a fresh process (as RLinf's adapter runs): nothing left from the measurement before."""
+    command = [
+        sys.executable,
+        "-m",
+        "benchmarks.bench_rl_env",
+        *("--ours", f"{envs},{chunk}", "--task", args.task, "--calls", str(args.calls)),
+        *("--max-steps", str(args.max_steps), "--image-size", str(args.image_size)),
+    ]
+    done = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return result
+
+
+def ours_here(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, Any]:
     from benchmarks.results import status_mib
     from libero_bench.rl.vector import LiberoVectorEnv
 
@@ -65,6 +83,25 @@ def measure_ours(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, A
     finally:
         env.close()
     return {"steps": steps, "episodes": episodes, "seconds": seconds, "mib_per_env": rss / envs}
+
+
+def memory_trace(args: argparse.Namespace) -> str:
+    """Resident memory of two workers (one environment each) over ``--memory-episodes`` one-step
+    episodes (each a reset, a step and an observation drawn), sampled every 20 episodes."""
+    from benchmarks.results import growth_summary, status_mib
+    from libero_bench.rl.vector import LiberoVectorEnv
+
+    env = LiberoVectorEnv(args.task, 2, image_size=args.image_size, max_episode_steps=1, settle=0)
+    trace = []
+    try:
+        env.reset(seed=0)
+        for call in range(args.memory_episodes // 2):
+            env.step(still(2, 1))
+            if call % 10 == 9:
+                trace.append(sum(status_mib(pid, "VmRSS") for pid in env.worker_pids()) / 2)
+    finally:
+        env.close()
+    return growth_summary(trace, f"samples of {args.memory_episodes} one-step episodes (per worker)")
 
 
 def measure_rlinf(args: argparse.Namespace, envs: int, chunk: int) -> dict[str, Any]:
@@ -114,6 +151,13 @@ def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
         else:
             cells, memory = ["", f"{ours_rate:.1f}", ""], ["", f"{ours['mib_per_env']:.0f}"]
         lines.append(f"| {row['envs']} | {row['chunk']} | " + " | ".join(cells + memory) + " |")
+    lines += [
+        "",
+        "Memory: the environment processes' resident MiB over their environments. At one environment "
+        "ours runs in the measuring process (the RL environment's `workers=1` is this process), so its "
+        "figure is that whole process, imports included; RLinf's is its environment process alone "
+        "(its driver, ~750 MiB, left out).",
+    ]
     peers = sorted({row["rlinf"]["version"] for row in rows if row.get("rlinf")})
     if peers:
         lines += ["", f"Peer: {', '.join(peers)} (its own environment, `benchmarks/peers/make_envs.sh`)."]
@@ -134,7 +178,18 @@ def main() -> None:
     parser.add_argument(
         "--results", action="store_true", help="Replace this benchmark's section of RESULTS.md."
     )
+    parser.add_argument(
+        "--memory-episodes", type=int, default=0, help="Instead: memory over this many one-step episodes."
+    )
+    parser.add_argument("--ours", default="", help=argparse.SUPPRESS)  # ENVS,CHUNK: one measurement here
     args = parser.parse_args()
+    if args.ours:
+        envs, chunk = (int(n) for n in args.ours.split(","))
+        print(json.dumps(ours_here(args, envs, chunk)))
+        return
+    if args.memory_episodes:
+        print(memory_trace(args))
+        return
     rows = []
     for envs in (int(n) for n in args.envs.split(",")):
         for chunk in (int(c) for c in args.chunks.split(",")):
