@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.bench_standard_eval import _eval, _free_port, _timed
+from benchmarks.bench_standard_eval import _eval, _free_port, _timed, stand_in_arguments
 
 ROOT = Path(__file__).resolve().parents[1]
 PEERS = ROOT / ".cache" / "peers"
@@ -207,13 +207,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--task", default="libero_object/0")
-    parser.add_argument("--episodes", type=int, default=12)
-    parser.add_argument(
-        "--max-steps", type=int, default=280, help="Steps after the waits (libero_object: 280)."
-    )
-    parser.add_argument("--latency", type=float, default=0.07)
-    parser.add_argument("--chunk", type=int, default=10)
+    stand_in_arguments(parser)
     parser.add_argument(
         "--only", default="", help="Comma-separated harnesses to run (openpi, vla-eval, RLinf, ours)."
     )

@@ -123,17 +123,22 @@ def _phases(folder: Path) -> dict[str, float]:
     return dict(sessions[-1].get("phases", {}))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+def stand_in_arguments(parser: argparse.ArgumentParser) -> None:
+    """The task, episodes and stand-in policy every throughput benchmark against a peer takes."""
     parser.add_argument("--task", default="libero_object/0")
     parser.add_argument("--episodes", type=int, default=12)
     parser.add_argument(
         "--max-steps", type=int, default=280, help="Steps after the waits (libero_object's limit: 280)."
     )
-    parser.add_argument("--latency", type=float, default=0.07)
-    parser.add_argument("--chunk", type=int, default=10)
+    parser.add_argument("--latency", type=float, default=0.07, help="Seconds per forward pass.")
+    parser.add_argument("--chunk", type=int, default=10, help="Actions per answer.")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    stand_in_arguments(parser)
     parser.add_argument(
         "--phases", type=int, default=0, help="Run eval on 1 and on N rollouts; print the phases."
     )
