@@ -14,4 +14,4 @@ import gymnasium as gym
 ENV_ID = "Libero-v0"
 
 if ENV_ID not in gym.registry:
-    gym.register(ENV_ID, vector_entry_point="libero_bench.rl.vector:make_vector_env")
+    gym.register(ENV_ID, vector_entry_point="libero_bench.rl.vector:LiberoVectorEnv")

@@ -37,7 +37,6 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -80,16 +79,17 @@ class LiberoVectorEnv(VectorEnv):
         resolved = get_task(task)  # an unknown task: one sentence here, not in a worker
         self.task_key = f"{resolved.suite}/{resolved.name}"
         self.task_description = resolved.language
-        self._stored = len(resolved.init_states()) if starts == "stored" else 0
-        if starts == "stored" and self._stored == 0:
+        if starts == "stored" and resolved.init_states_path is None:
             raise InputError(f"task {task} has no stored init states; use starts='sampled'")
-        limit = max_episode_steps or standard_limit(resolved.suite, resolved.name)
+        self._stored = len(resolved.init_states()) if starts == "stored" else 0
+        if max_episode_steps is None:
+            max_episode_steps = standard_limit(resolved.suite, resolved.name)
         self.settings = HostSettings(
             task=task,
             image_size=image_size,
             cameras=tuple(cameras),
             render_quality=render_quality,
-            max_steps=limit,
+            max_steps=max_episode_steps,
             settle=settle,
         )
         self.num_envs, self.chunk, self.group_size = num_envs, chunk, group_size
@@ -255,8 +255,3 @@ def _check_counts(num_envs: int, chunk: int, group_size: int, starts: str) -> No
         raise InputError(f"num_envs ({num_envs}) must be a multiple of group_size ({group_size})")
     if starts not in STARTS:
         raise InputError(f"starts must be {' or '.join(STARTS)}, got {starts!r}")
-
-
-def make_vector_env(num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:
-    """The vector entry point of the registered ids (:mod:`libero_bench.rl.ids`)."""
-    return LiberoVectorEnv(num_envs=num_envs, **kwargs)

@@ -102,6 +102,15 @@ def test_bad_settings_get_one_sentence(kwargs: dict[str, Any], says: str) -> Non
         LiberoVectorEnv(**{"task": TASK, **kwargs})
 
 
+def test_stored_starts_need_stored_init_states() -> None:
+    from libero_bench.rl.vector import LiberoVectorEnv
+    from libero_data.tasks import get_task
+
+    bddl = str(get_task(TASK).bddl_path)  # a task named by its file has no stored init states
+    with pytest.raises(InputError, match="no stored init states; use starts='sampled'"):
+        LiberoVectorEnv(bddl, starts="stored")
+
+
 @pytest.fixture(scope="module")
 def grouped() -> Iterator[Any]:
     """Two environments in two worker processes, one GRPO group, through gymnasium's registry."""
