@@ -33,8 +33,9 @@ BatchSize = Annotated[
     typer.Option(
         "--batch-size",
         "-b",
-        help="Environments stepped at once: each control step their observations go through one batched "
-        "forward pass (default: one per worker).",
+        help="Environments stepped at once (default: two per worker). With two or more per worker they "
+        "take turns in two halves: the policy answers one half in one batched forward pass while the "
+        "workers step the other.",
         min=1,
     ),
 ]

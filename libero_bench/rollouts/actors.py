@@ -69,6 +69,12 @@ class BatchActor:
         queued chunk does not: its environment need not draw the images)."""
         return True
 
+    def ahead(self, slot: int) -> list[np.ndarray]:
+        """The actions ``slot`` takes next without looking at an observation (the rest of a queued
+        chunk), taken from its queue: its environment can run them in the same call as the action
+        :meth:`act` just gave, and draw only after the last. None by default."""
+        return []
+
     def act_chunks(self, observations: Observations) -> dict[int, np.ndarray]:
         """A fresh chunk ``(H, 7)`` for every slot in ``observations``: what a policy server answers
         a client that executes chunks (openpi's). One action per slot for a one-step policy."""

@@ -83,13 +83,22 @@ class EpisodeHost:
         actions: Mapping[int, np.ndarray],
         unseen: frozenset[int] = frozenset(),
     ) -> dict[int, Reply]:
-        """Step the running slots with ``actions``, then start ``starts``; each slot's reply. The
-        slots in ``unseen`` draw no images this step: the policy will not look at this observation
-        (it acts from a queued chunk), and the images drawn last are held in its place."""
+        """Step the running slots with ``actions``, then start ``starts``; each slot's reply.
+
+        A slot's actions are one 7-D action or several ``(k, 7)`` in a row (a chunk's actions that
+        the policy takes without looking): the steps before the last draw no images, and the
+        episode stops at the first step that ends it. The slots in ``unseen`` draw no images at
+        their last step either: the policy will not look at this observation (it acts from a
+        queued chunk), and the images drawn last are held in its place."""
         self._collect(wait=False)
-        replies: dict[int, Reply] = {
-            slot: self.step(slot, action, render=slot not in unseen) for slot, action in actions.items()
-        }
+        replies: dict[int, Reply] = {}
+        for slot, given in actions.items():
+            rows = np.asarray(given, dtype=np.float64).reshape(-1, np.shape(given)[-1])
+            for i, action in enumerate(rows):
+                last = i == len(rows) - 1
+                replies[slot] = self.step(slot, action, render=last and slot not in unseen)
+                if replies[slot][1] is not None:  # the episode ended
+                    break
         for slot, job in starts.items():
             replies[slot] = (self.start(slot, job), None)
         return replies

@@ -223,6 +223,11 @@ class LeRobotActor(BatchActor):
         # A policy reading several past observations keeps every one of them, chunk or not.
         return self.n_obs > 1 or self.queues.empty(slot)
 
+    def ahead(self, slot: int) -> list[np.ndarray]:
+        if self.n_obs > 1:  # every observation joins its history: one step per call
+            return []
+        return [np.asarray(a, dtype=np.float32).reshape(-1)[:7] for a in self.queues.take(slot)]
+
     def describe(self) -> dict[str, Any]:
         return {
             "actor": "lerobot",

@@ -1,10 +1,12 @@
-"""The driver's loop: jobs onto environment slots, one batched policy call per control step.
+"""The driver's loop: jobs onto environment slots, one batched policy call per turn.
 
 :class:`EnvironmentSlots` holds ``batch_size`` environment slots spread over the workers of an
-:class:`~libero_data.runtime.actors.ActorPool` (worker processes, Ray actors, or this process);
-:meth:`EnvironmentSlots.run` rolls a :class:`~libero_bench.rollouts.actors.BatchActor` out on a list of
-jobs. Each control step the actor is asked once, for every running slot; then every worker steps
-its slots and starts the next jobs on the free ones, all workers at once. An episode that ends
+:class:`~libero_data.runtime.actors.ActorPool` (worker processes, Ray actors, or a thread of this
+process); :meth:`EnvironmentSlots.run` rolls a :class:`~libero_bench.rollouts.actors.BatchActor`
+out on a list of jobs. The slots form one group, or two halves when every worker holds two slots
+or more. Each turn the actor is asked once, for the running slots of a group; then the workers
+step those slots (a queued chunk's actions in one go) and start the next jobs on its free ones.
+With two halves, one half's steps run while the policy answers the other. An episode that ends
 frees its slot for the next job while the others go on.
 
 What a rollout does depends on its job only: its start (task, kind of start, rollout index) is
@@ -24,6 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from libero_bench.rollouts.actors import Start
 from libero_data.runtime.jobs import JobPlacement
 
@@ -39,7 +43,8 @@ log = logging.getLogger(__name__)
 class RolloutResources:
     """How an evaluation runs: where the environments step (an
     :class:`~libero_data.runtime.jobs.JobPlacement`: this process, ``workers`` worker processes, or
-    Ray actors), ``batch_size`` environments at once (default: one per worker), the policy on
+    Ray actors), ``batch_size`` environments at once (default: two per worker, in two halves that
+    take turns: :meth:`EnvironmentSlots.run`), the policy on
     ``device`` (default: cuda where available, then mps, else cpu)."""
 
     executor: JobPlacement = field(default_factory=JobPlacement)
@@ -57,7 +62,7 @@ class RolloutResources:
     @property
     def environments(self) -> int:
         """How many environments run at once (the policy's batch)."""
-        return self.batch_size or self.executor.workers
+        return self.batch_size or 2 * self.executor.workers
 
     def policy_device(self) -> str:
         from libero_bench.rollouts.actors import default_device
@@ -124,58 +129,87 @@ class EnvironmentSlots:
             written = self._pool.call({w: ("flush", ()) for w in range(self._pool.size)})
             self.timing["store_s"] = self.timing.get("store_s", 0.0) + sum(written.values())
 
+    def halves(self, workers: int) -> list[list[int]]:
+        """The slots in the groups that take turns: two halves when every worker holds two
+        slots or more (slot ``s`` in half ``(s // workers) % 2``: each worker has slots in both),
+        else one group (all slots step together)."""
+        if self.batch_size < 2 * workers:
+            return [list(range(self.batch_size))]
+        return [[s for s in range(self.batch_size) if (s // workers) % 2 == h] for h in (0, 1)]
+
     def run(self, actor: BatchActor, jobs: Sequence[RolloutJob]) -> Iterator[tuple[int, RolloutResult]]:
-        """Roll ``actor`` out on ``jobs``; yields ``(index, result)`` as episodes end."""
+        """Roll ``actor`` out on ``jobs``; yields ``(index, result)`` as episodes end.
+
+        With two halves (:meth:`halves`) the policy acts for one half while the workers step the
+        other: a half's call goes out, then the driver collects the other half's answers and asks
+        the policy for it, so the workers never wait for the policy unless it is slower than a
+        half's steps. Each call carries, per slot, the action the policy gave and the rest of its
+        queued chunk (:meth:`BatchActor.ahead`), stepped in one go and drawn only at the end."""
         if not jobs:
             return
         pool = self.pool()
         owner = [slot % pool.size for slot in range(self.batch_size)]
+        groups = self.halves(pool.size)
+        half_of = {s: h for h, group in enumerate(groups) for s in group}
         todo = deque(range(len(jobs)))
-        free = deque(range(self.batch_size))
+        free = [deque(group) for group in groups]
         running: dict[int, int] = {}  # slot -> job index
-        observations: dict[int, Any] = {}
+        observations: dict[int, Any] = {}  # slots whose next observation awaits the policy
+        in_flight: deque[list[int]] = deque()  # the workers of each call out, oldest first
+        turn = 0
         try:
             while todo or running:
+                group = turn % len(groups)
+                turn += 1
+                seen = {s: observations.pop(s) for s in groups[group] if s in observations}
                 asked = time.perf_counter()
-                actions = actor.act(observations) if observations else {}
+                actions = actor.act(seen) if seen else {}
                 self.timing["policy_s"] += time.perf_counter() - asked
+                steps = {s: np.stack([a, *actor.ahead(s)]) for s, a in actions.items()}
                 starts: dict[int, int] = {}
-                while todo and free:
-                    slot, index = free.popleft(), todo.popleft()
+                while todo and free[group]:
+                    slot, index = free[group].popleft(), todo.popleft()
                     job = jobs[index]
                     actor.begin(slot, Start(job.key, job.language, job.task_emb, job.init_index, job.suite))
                     starts[slot] = index
+                unseen = frozenset(s for s in steps if not actor.looks(s))
                 calls = {}
-                unseen = frozenset(s for s in actions if not actor.looks(s))
-                for worker in sorted({owner[s] for s in [*starts, *actions]}):
+                for worker in sorted({owner[s] for s in [*starts, *steps]}):
                     mine_starts = {s: jobs[i] for s, i in starts.items() if owner[s] == worker}
-                    mine_actions = {s: a for s, a in actions.items() if owner[s] == worker}
+                    mine_steps = {s: a for s, a in steps.items() if owner[s] == worker}
                     mine_unseen = frozenset(s for s in unseen if owner[s] == worker)
-                    calls[worker] = ("advance", (mine_starts, mine_actions, mine_unseen))
+                    calls[worker] = ("advance", (mine_starts, mine_steps, mine_unseen))
                 running.update(starts)
-                ended = []
+                if calls:
+                    pool.submit(calls)
+                    in_flight.append(sorted(calls))
+                # the oldest call's answers: once both halves are out, or when this half had none
+                if not in_flight or (calls and len(in_flight) < len(groups)):
+                    continue
                 waited = time.perf_counter()
-                answers = pool.call(calls)
+                answers = pool.collect(in_flight.popleft())
                 self.timing["workers_s"] += time.perf_counter() - waited
+                ended = []
                 for replies in answers.values():
                     for slot, (obs, result) in replies.items():
                         if result is None:
                             observations[slot] = obs
-                            continue
-                        ended.append((slot, result))
+                        else:
+                            ended.append((slot, result))
                 for slot, result in sorted(ended, key=lambda e: e[0]):
                     index = running.pop(slot)
-                    observations.pop(slot, None)
                     actor.end(slot, result.success)
-                    free.append(slot)
+                    free[half_of[slot]].append(slot)
                     if not todo and not running:  # the last one: every episode written before it is given
                         self.flush()
                     yield index, result
         except GeneratorExit:
             # the caller stopped early: the workers forget the episodes in hand, write the finished
+            pool.drain()
             pool.call({w: ("abandon", ()) for w in sorted(set(owner))})
             raise
         except Exception:
             with contextlib.suppress(Exception):  # the finished episodes are written if the workers can
+                pool.drain()
                 self.flush()
             raise

@@ -235,6 +235,9 @@ class RequestView(BatchActor):
     def looks(self, slot: int) -> bool:
         return self.actor.looks(slot)
 
+    def ahead(self, slot: int) -> list[np.ndarray]:
+        return self.actor.ahead(slot)
+
     def describe(self) -> dict[str, Any]:
         return {
             **self.actor.describe(),

@@ -249,6 +249,9 @@ class RemoteActor(BatchActor):
     def looks(self, slot: int) -> bool:
         return self.queues.empty(slot)
 
+    def ahead(self, slot: int) -> list[np.ndarray]:
+        return [np.asarray(a, dtype=np.float64).reshape(-1)[:7] for a in self.queues.take(slot)]
+
     def describe(self) -> dict[str, Any]:
         return {
             "actor": "server",

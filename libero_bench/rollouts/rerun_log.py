@@ -44,14 +44,18 @@ def write_rollout_rrd(
     with rrd_file(out, "libero-bench", recording_id) as rec:
         rec.log("language", rr.TextDocument(language), static=True)
         rec.log("tags", rr.TextDocument(json.dumps(dict(tags), sort_keys=True, default=str)), static=True)
+        jpegs: dict[int, Any] = {}  # an image held over several frames is compressed once (see mcap_log)
         for step, (obs, ok) in enumerate(zip(frames, success, strict=True)):
             rec.set_time("step", sequence=step)
             rec.set_time("time", duration=step / FPS)
             for camera, entity in CAMERAS.items():
                 if camera in obs:
-                    rec.log(
-                        entity, rr.Image(np.asarray(obs[camera], dtype=np.uint8)).compress(jpeg_quality=90)
-                    )
+                    image = obs[camera]
+                    if id(image) not in jpegs:
+                        jpegs[id(image)] = rr.Image(np.asarray(image, dtype=np.uint8)).compress(
+                            jpeg_quality=90
+                        )
+                    rec.log(entity, jpegs[id(image)])
             _scalars(rec, "state", STATE_NAMES, obs.get("state"))
             _scalars(rec, "joints", JOINT_NAMES, obs.get("joint_pos"))
             _scalars(rec, "action", ACTION_NAMES, obs.get("action"))

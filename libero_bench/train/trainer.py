@@ -221,7 +221,12 @@ class Trainer:
         algo = self._new_algo()
         results = self.prepare()
         self.folder.work.mkdir(parents=True, exist_ok=True)
-        with RolloutResources(self.options.executor).open(self.folder.root) as environments:
+        # One environment per worker, all stepping together: a run resumed after an interruption
+        # then batches its policy as the uninterrupted run did and its rollouts stay the same bit
+        # for bit (tests/bench/test_bench_run.py). With halves taking turns the resumed run's
+        # batches differed in the actions' last bits (docs/evaluation.md, "Which outcomes may differ").
+        executor = self.options.executor
+        with RolloutResources(executor, batch_size=executor.workers).open(self.folder.root) as environments:
             self.rounds.environments = environments
             try:
                 if self.plan.needs_all_tasks:

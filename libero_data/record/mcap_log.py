@@ -134,6 +134,15 @@ def write_episode_mcap(
             )
 
         emit("/language", 0, {"timestamp": _stamp(0), "task": task, "instruction": instruction})
+        # An image held over several frames (a rollout draws only where its policy looks) is the
+        # same array each time: compressed once. The frames keep every array alive, so ids are unique.
+        jpegs: dict[int, str] = {}
+
+        def jpeg(image: np.ndarray) -> str:
+            if id(image) not in jpegs:
+                jpegs[id(image)] = base64.b64encode(_jpeg(image)).decode()
+            return jpegs[id(image)]
+
         for t, frame in enumerate(frames):
             ns = t * step_ns
             for camera in ("agentview", "eye_in_hand"):
@@ -144,7 +153,7 @@ def write_episode_mcap(
                         {
                             "timestamp": _stamp(ns),
                             "frame_id": camera,
-                            "data": base64.b64encode(_jpeg(frame[camera])).decode(),
+                            "data": jpeg(frame[camera]),
                             "format": "jpeg",
                         },
                     )

@@ -6,11 +6,16 @@ the policy, every worker keeps simulation environments, and each control step th
 the actions and gathers the observations. An :class:`ActorPool` is that shape:
 
 - ``ActorPool(executor, root, factory)`` starts ``executor.workers`` workers (worker processes, or
-  Ray actors with one CPU each; one local worker: one actor in this process), and each builds its
+  Ray actors with one CPU each; one local worker: one actor in a thread of this process, so that
+  the driver's policy and the actor's steps can overlap), and each builds its
   object with ``factory(ctx)`` (a module-level function; ``ctx`` is a
   :class:`~libero_data.runtime.jobs.WorkerContext` whose cache lives as long as the worker);
 - ``pool.call({actor: (method, args)})`` calls those methods on those actors at once and returns
   their results by actor; the actors work in parallel, the call returns when all have answered;
+- ``pool.submit(calls)`` sends the calls and returns at once, ``pool.collect(actors)`` waits for
+  their answers: the driver works (runs its policy) while the actors do; an actor answers its
+  calls in the order they were sent, so several may be in flight; ``pool.drain()`` reads and
+  drops every answer still due (after a failure, before the pool is called again);
 - files an actor declares with ``ctx.ship`` come back under ``root`` after each call (on Ray, where
   the actor writes into a scratch folder of its machine); locally they are written in place.
 
@@ -23,10 +28,13 @@ raised in the driver with the actor's traceback as its cause; a worker that dies
 from __future__ import annotations
 
 import contextlib
+import queue
 import shutil
 import tempfile
+import threading
 import traceback
-from collections.abc import Callable, Mapping
+from collections import deque
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -91,6 +99,49 @@ def _process_main(conn: Any, factory: Factory, root: str, setup: Callable[[], No
             close()
 
 
+class _ThreadHost:
+    """The one actor of a pool in this process: a thread builds the object and runs its calls
+    (everything the object holds, a GL context included, stays with that thread)."""
+
+    def __init__(self, factory: Factory, root: Path) -> None:
+        self.calls: queue.SimpleQueue[Call | None] = queue.SimpleQueue()
+        self.answers: queue.SimpleQueue[tuple[bool, Any]] = queue.SimpleQueue()
+        self.thread = threading.Thread(target=self._main, args=(factory, root), name="actor-0", daemon=True)
+        self.thread.start()
+
+    def _main(self, factory: Factory, root: Path) -> None:
+        cache = WorkerCache()
+        try:
+            target = factory(WorkerContext(root, cache, None, lambda _event: None))
+        except Exception as exc:
+            cache.close()
+            self.answers.put((False, (exc, traceback.format_exc())))
+            return
+        self.answers.put((True, None))
+        try:
+            while (message := self.calls.get()) is not None:
+                self.answers.put(_invoke(target, *message))
+        finally:
+            cache.close()
+            close = getattr(target, "close", None)
+            if callable(close):
+                close()
+
+    def receive(self) -> tuple[bool, Any]:
+        while True:
+            try:
+                return self.answers.get(timeout=1.0)
+            except queue.Empty:
+                if not self.thread.is_alive():
+                    raise ExecutorError(
+                        "the simulation thread of this process stopped", field="workers"
+                    ) from None
+
+    def stop(self, *, abort: bool) -> None:
+        self.calls.put(None)
+        self.thread.join(timeout=0 if abort else 60)
+
+
 class _RayHost:
     """The object a Ray actor keeps; files it ships come back with every call's result."""
 
@@ -127,17 +178,22 @@ class ActorPool:
     ) -> None:
         self.executor = executor
         self.root = Path(root)
-        self._here: Any = None
-        self._cache: WorkerCache | None = None
+        self._here: _ThreadHost | None = None
         self._processes: list[tuple[Any, Any]] = []
         self._ray_actors: list[Any] = []
         self._ray: Any = None
         self._ray_started = False
+        #: Answers not collected yet, per actor, oldest first: the answer itself (this process), its
+        #: Ray reference, or None (a worker process: the answer waits in its pipe).
+        self._due: dict[int, deque[Any]] = {}
         if executor.kind == "ray":
             self._start_ray(factory, setup)
         elif executor.in_process:
-            self._cache = WorkerCache()
-            self._here = factory(WorkerContext(self.root, self._cache, None, lambda _event: None))
+            self._here = _ThreadHost(factory, self.root)
+            ok, payload = self._here.receive()
+            if not ok:
+                self.close(abort=True)
+                _reraise(0, payload)
         else:
             self._start_processes(factory, setup)
 
@@ -187,38 +243,56 @@ class ActorPool:
 
     def call(self, calls: Mapping[int, Call]) -> dict[int, Any]:
         """Call ``{actor: (method, args)}`` at once; the results by actor."""
-        if self._here is not None:
-            out = {}
-            for i, (method, args) in calls.items():
-                ok, result = _invoke(self._here, method, args)
-                if not ok:
-                    _reraise(i, result)
-                out[i] = result
-            return out
+        self.submit(calls)
+        return self.collect(list(calls))
+
+    def submit(self, calls: Mapping[int, Call]) -> None:
+        """Send ``{actor: (method, args)}`` without waiting; :meth:`collect` gets the answers."""
+        if self._here is not None:  # this process: the actor's thread runs it
+            for i, message in calls.items():
+                self._here.calls.put(message)
+                self._due.setdefault(i, deque()).append(None)
+            return
         if self._ray_actors:
-            return self._call_ray(calls)
+            for i, (method, args) in calls.items():
+                self._due.setdefault(i, deque()).append(self._ray_actors[i].call.remote(method, args))
+            return
         for i, message in calls.items():
             try:
                 self._processes[i][1].send(message)
             except (BrokenPipeError, OSError):
                 self._receive(i)  # raises the worker's death
-        replies = {i: self._receive(i) for i in calls}
+            self._due.setdefault(i, deque()).append(None)
+
+    def collect(self, actors: Sequence[int]) -> dict[int, Any]:
+        """The oldest answer due from each of ``actors`` (raising the first actor's failure once
+        all have answered)."""
+        replies = {i: self._next(i) for i in actors}
         for i, (ok, payload) in replies.items():
             if not ok:
                 _reraise(i, payload)
         return {i: payload for i, (_ok, payload) in replies.items()}
 
-    def _call_ray(self, calls: Mapping[int, Call]) -> dict[int, Any]:
-        refs = {i: self._ray_actors[i].call.remote(method, args) for i, (method, args) in calls.items()}
-        out = {}
-        for i, ref in refs.items():
-            ok, result, shipped = self._ray.get(ref)
+    def drain(self) -> None:
+        """Read and drop every answer still due (their failures too)."""
+        for i in list(self._due):
+            while self._due[i]:
+                with contextlib.suppress(Exception):
+                    self._next(i)
+
+    def _next(self, i: int) -> tuple[bool, Any]:
+        due = self._due.get(i)
+        if not due:
+            raise RuntimeError(f"actor {i} has no answer due")
+        entry = due.popleft()
+        if self._here is not None:
+            return self._here.receive()
+        if self._ray_actors:
+            ok, result, shipped = self._ray.get(entry)
             for rel, packed in shipped:
                 unpack(packed, self.root / rel)
-            if not ok:
-                _reraise(i, result)
-            out[i] = result
-        return out
+            return ok, result
+        return self._receive(i)
 
     def worker_pids(self) -> list[int]:
         """The process ids of the local worker processes (for measurements)."""
@@ -233,13 +307,8 @@ class ActorPool:
     def close(self, *, abort: bool = False) -> None:
         """Stop the workers (``abort``: without waiting for them to tidy up)."""
         if self._here is not None:
-            close = getattr(self._here, "close", None)
-            if callable(close):
-                close()
-            self._here = None
-        if self._cache is not None:
-            self._cache.close()
-            self._cache = None
+            here, self._here = self._here, None
+            here.stop(abort=abort)
         processes, self._processes = self._processes, []
         if not abort:
             for _process, conn in processes:

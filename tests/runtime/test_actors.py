@@ -57,3 +57,22 @@ def test_ray_actors_keep_state_and_send_their_files_back(tmp_path: Path) -> None
     # Ray actors write in scratch folders; what they ship lands under the pool's root.
     written = sorted(p.read_text() for p in (tmp_path / "out").iterdir())
     assert written == ["1", "2", "2", "4"]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_calls_in_flight_are_answered_in_order_and_a_failure_can_be_drained(
+    workers: int, tmp_path: Path
+) -> None:
+    with ActorPool(JobPlacement("local", workers), tmp_path, make_counter) as pool:
+        everyone = list(range(pool.size))
+        pool.submit({i: ("add", (1,)) for i in everyone})
+        pool.submit({i: ("add", (10,)) for i in everyone})  # two calls out per actor
+        first, second = pool.collect(everyone), pool.collect(everyone)
+        assert [first[i]["total"] for i in everyone] == [1] * workers
+        assert [second[i]["total"] for i in everyone] == [11] * workers
+        with pytest.raises(RuntimeError, match="no answer due"):
+            pool.collect([0])
+        pool.submit({0: ("fail", ())})
+        pool.submit({0: ("add", (100,))})
+        pool.drain()  # the failure and the answer after it are read and dropped
+        assert pool.call({0: ("add", (1000,))})[0]["total"] == 1111
