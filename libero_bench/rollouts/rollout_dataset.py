@@ -41,7 +41,8 @@ ROLLOUT_CARD = (
 
 Every evaluation rollout of the run `{run}` ({algo} + {policy}, preset `{preset}`, seed {seed}):
 {episodes} episodes over {tasks} tasks, recorded like demonstrations (both cameras, 8-D state,
-joint positions, gripper state, 7-D actions and the MuJoCo state of every frame).
+joint positions, gripper state, 7-D actions and the MuJoCo state of every frame; videos in H.264,
+cheaper to write during an evaluation than the demonstrations' AV1).
 
 `meta/libero_episodes.jsonl` tags each episode with its task (`task_name`, `task_position`),
 the task learned last when it ran (`learned_after`, `learned_after_position`), the training
@@ -59,7 +60,8 @@ EVAL_CARD = (
 
 Every rollout of the evaluation `{run}`: the {policy_type} policy `{policy}` under the {protocol}
 protocol, {episodes} over {tasks}, recorded like demonstrations (both cameras, 8-D state, joint
-positions, gripper state, 7-D actions and the MuJoCo state of every frame). The evaluation's
+positions, gripper state, 7-D actions and the MuJoCo state of every frame; videos in H.264,
+cheaper to write during an evaluation than the demonstrations' AV1). The evaluation's
 `report.md` beside this folder gives the success rates with their intervals.
 
 `meta/libero_episodes.jsonl` tags each episode with its task (`task_name`, `task_position`), the

@@ -126,6 +126,7 @@ def write_frames(
     sim_state_width: int,
     info: dict[str, Any],
     length: int | None = None,
+    rgb_encoder: Any = None,
 ) -> Path:
     """Write observed frames (env observations with images and an ``action``) as a one-episode shard.
 
@@ -133,6 +134,7 @@ def write_frames(
     while acting). ``frames`` may be a list or an iterator (then ``length`` says how many it
     gives, and ``success`` may be filled in while it runs). The folder appears atomically: a
     LeRobot dataset, ``episode.mcap`` and ``episode.json`` (``info`` plus the length).
+    ``rgb_encoder`` is LeRobot's ``RGBEncoderConfig`` of the videos (default: LeRobot's).
     """
     if length is None:
         frames = list(frames)
@@ -147,6 +149,7 @@ def write_frames(
         layout=layout,
         sim_state_width=sim_state_width,
         info=info,
+        rgb_encoder=rgb_encoder,
     )()
 
 
@@ -161,6 +164,7 @@ def _start(
     layout: FeatureLayout,
     sim_state_width: int,
     info: dict[str, Any],
+    rgb_encoder: Any = None,
 ) -> Callable[[], Path]:
     """Feed every frame to a new shard in a scratch folder beside ``out``; returns the call
     that writes the rest and renames the folder to ``out`` (the scratch folder is removed if
@@ -176,6 +180,7 @@ def _start(
             root=tmp,
             robot_type="panda",
             use_videos=True,
+            rgb_encoder=rgb_encoder,
             # Frames go straight to an encoder thread per camera instead of through a PNG per
             # frame and camera (libero_data.record.encoder: LeRobot's codec settings, exact
             # uint8 statistics, a bounded queue that waits rather than drops); the videos are

@@ -155,3 +155,22 @@ def test_halves_taking_turns_and_chunks_stepped_in_one_call_change_no_rollout(tm
             np.testing.assert_array_equal(frames(alone, column), frames(turns, column))
         info = json.loads((turns / "episode.json").read_text())
         assert info["held_images"] == steps - 2  # drawn only where the policy looked (steps 5, 10)
+
+
+def test_a_rollouts_videos_are_h264_and_read_back_through_lerobot(tmp_path: Path) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from libero_bench.rollouts.episodes import ROLLOUT_VIDEO
+
+    job = jobs_of(tmp_path, 6)[0]
+    with RolloutResources(batch_size=1).open(tmp_path) as environments:
+        list(environments.run(ChunkActor(), [job]))
+    shard = tmp_path / job.shard_dir
+    features = json.loads((shard / "meta" / "info.json").read_text())["features"]
+    videos = {k: v["info"] for k, v in features.items() if v["dtype"] == "video"}
+    assert len(videos) == 2 and all(v["video.codec"] == ROLLOUT_VIDEO["vcodec"] for v in videos.values())
+    dataset = LeRobotDataset("libero-data/shard", root=shard)
+    assert len(dataset) == 6
+    for key in videos:
+        image = dataset[5][key]  # decoded at its timestamp: an upright picture, not a blank
+        assert tuple(image.shape) == (3, SIZE, SIZE) and float(image.std()) > 0.01
