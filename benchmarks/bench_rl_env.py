@@ -138,20 +138,27 @@ def table(rows: list[dict[str, Any]], args: argparse.Namespace) -> str:
         f"`{args.task}`, {args.image_size} px full rendering, {args.calls} chunk calls per environment, "
         f"episodes cut at {args.max_steps} steps and reset automatically; no policy (the environments alone).",
         "",
-        "| environments | chunk | RLinf steps/s | ours steps/s | ours ÷ RLinf | RLinf MiB/env | ours MiB/env |",
-        "|---:|---:|---:|---:|---:|---:|---:|",
+        "| environments | chunk | RLinf steps/s | ours steps/s | ours ÷ RLinf | RLinf rollouts/min "
+        "| ours rollouts/min | RLinf MiB/env | ours MiB/env |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
+    per_min = 60 / args.max_steps  # rollouts per minute of an environment step rate, at this length
     for row in rows:
         ours, peer = row["ours"], row.get("rlinf")
         ours_rate = ours["steps"] / ours["seconds"]
         if peer:
             peer_rate = peer["steps"] / peer["seconds"]
             cells = [f"{peer_rate:.1f}", f"{ours_rate:.1f}", f"**{ours_rate / peer_rate:.2f}×**"]
+            cells += [f"{peer_rate * per_min:.2f}", f"{ours_rate * per_min:.2f}"]
             memory = [f"{peer['mib_per_env']:.0f}", f"{ours['mib_per_env']:.0f}"]
         else:
-            cells, memory = ["", f"{ours_rate:.1f}", ""], ["", f"{ours['mib_per_env']:.0f}"]
+            cells = ["", f"{ours_rate:.1f}", "", "", f"{ours_rate * per_min:.2f}"]
+            memory = ["", f"{ours['mib_per_env']:.0f}"]
         lines.append(f"| {row['envs']} | {row['chunk']} | " + " | ".join(cells + memory) + " |")
     lines += [
+        "",
+        f"Rollouts per minute: episodes of {args.max_steps} steps at the measured step rate (steps/s × 60 / "
+        f"{args.max_steps}; resets are inside the timed calls on both sides).",
         "",
         "Memory: the environment processes' resident MiB over their environments. At one environment "
         "ours runs in the measuring process (the RL environment's `workers=1` is this process), so its "

@@ -1,7 +1,7 @@
 """The worker side of the RL environment: the simulations of some slots, stepped a chunk at a time.
 
 A :class:`ChunkHost` lives in a worker process (one per process, built by :func:`make_chunk_host`; in
-this process for one worker) and holds one :class:`~libero_data.sim.LiberoEnv` per slot, built
+a thread of this process for one worker) and holds one :class:`~libero_data.sim.LiberoEnv` per slot, built
 at the slot's first reset and kept for every episode after (a scene takes seconds to build; a
 reset reuses it, so memory stays flat over thousands of episodes).
 
