@@ -35,7 +35,8 @@ BatchSize = Annotated[
         "-b",
         help="Environments stepped at once (default: two per worker). With two or more per worker they "
         "take turns in two halves: the policy answers one half in one batched forward pass while the "
-        "workers step the other.",
+        "workers step the other. Each environment holds its scene in memory: --batch-size equal to --workers "
+        "keeps one per worker.",
         min=1,
     ),
 ]
