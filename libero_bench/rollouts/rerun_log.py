@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from libero_data.record.mcap_log import once_per_image
 from libero_data.record.rrd import rrd_file
 
 FPS = 20
@@ -44,18 +45,15 @@ def write_rollout_rrd(
     with rrd_file(out, "libero-bench", recording_id) as rec:
         rec.log("language", rr.TextDocument(language), static=True)
         rec.log("tags", rr.TextDocument(json.dumps(dict(tags), sort_keys=True, default=str)), static=True)
-        jpegs: dict[int, Any] = {}  # an image held over several frames is compressed once (see mcap_log)
+        jpeg = once_per_image(
+            lambda image: rr.Image(np.asarray(image, dtype=np.uint8)).compress(jpeg_quality=90)
+        )
         for step, (obs, ok) in enumerate(zip(frames, success, strict=True)):
             rec.set_time("step", sequence=step)
             rec.set_time("time", duration=step / FPS)
             for camera, entity in CAMERAS.items():
                 if camera in obs:
-                    image = obs[camera]
-                    if id(image) not in jpegs:
-                        jpegs[id(image)] = rr.Image(np.asarray(image, dtype=np.uint8)).compress(
-                            jpeg_quality=90
-                        )
-                    rec.log(entity, jpegs[id(image)])
+                    rec.log(entity, jpeg(obs[camera]))
             _scalars(rec, "state", STATE_NAMES, obs.get("state"))
             _scalars(rec, "joints", JOINT_NAMES, obs.get("joint_pos"))
             _scalars(rec, "action", ACTION_NAMES, obs.get("action"))

@@ -10,7 +10,7 @@ from __future__ import annotations
 import base64
 import io
 import json
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -96,6 +96,24 @@ def _jpeg(image: np.ndarray, quality: int = 90) -> bytes:
     return buf.getvalue()
 
 
+def once_per_image[T](encode: Callable[[np.ndarray], T]) -> Callable[[np.ndarray], T]:
+    """``encode`` with its result kept per image array, for one episode's frames.
+
+    An image held over several frames (a rollout draws only where its policy looks, and holds
+    the images between) is the same array in each: it is encoded once. Keyed by the array's
+    identity, which is unique while the caller keeps the frames (and so every array) alive, and
+    images are never changed in place once observed (each draw makes a new array).
+    """
+    done: dict[int, T] = {}
+
+    def encoded(image: np.ndarray) -> T:
+        if id(image) not in done:
+            done[id(image)] = encode(image)
+        return done[id(image)]
+
+    return encoded
+
+
 def write_episode_mcap(
     path: str | Path,
     *,
@@ -134,15 +152,7 @@ def write_episode_mcap(
             )
 
         emit("/language", 0, {"timestamp": _stamp(0), "task": task, "instruction": instruction})
-        # An image held over several frames (a rollout draws only where its policy looks) is the
-        # same array each time: compressed once. The frames keep every array alive, so ids are unique.
-        jpegs: dict[int, str] = {}
-
-        def jpeg(image: np.ndarray) -> str:
-            if id(image) not in jpegs:
-                jpegs[id(image)] = base64.b64encode(_jpeg(image)).decode()
-            return jpegs[id(image)]
-
+        jpeg = once_per_image(lambda image: base64.b64encode(_jpeg(image)).decode())
         for t, frame in enumerate(frames):
             ns = t * step_ns
             for camera in ("agentview", "eye_in_hand"):

@@ -183,8 +183,8 @@ class ActorPool:
         self._ray_actors: list[Any] = []
         self._ray: Any = None
         self._ray_started = False
-        #: Answers not collected yet, per actor, oldest first: the answer itself (this process), its
-        #: Ray reference, or None (a worker process: the answer waits in its pipe).
+        #: Answers not collected yet, per actor, oldest first: a Ray reference, or None where the
+        #: answer waits in the actor's pipe or queue (a worker process, this process's thread).
         self._due: dict[int, deque[Any]] = {}
         if executor.kind == "ray":
             self._start_ray(factory, setup)

@@ -51,7 +51,8 @@ def halved(image: np.ndarray, cap: int) -> np.ndarray:
     Each halving takes the mean of 2x2 pixels, so n halvings give the mean of each 2^n x 2^n
     block; successive float means are exact here (integers over powers of 4, far within float32's
     precision), so summing the blocks in integers and dividing once, rounded half to even, gives
-    the same bytes as halving in float, about ten times faster on a 4096x4096 texture.
+    the same bytes as halving in float (tests/sim/test_texture_size.py) without a float copy of
+    the texture at every level.
     """
     height, width = image.shape[:2]
     block = 1
