@@ -48,29 +48,39 @@ def write_rollout_rrd(
         jpeg = once_per_image(
             lambda image: rr.Image(np.asarray(image, dtype=np.uint8)).compress(jpeg_quality=90)
         )
-        for step, (obs, ok) in enumerate(zip(frames, success, strict=True)):
+        for step, obs in enumerate(frames):
             rec.set_time("step", sequence=step)
             rec.set_time("time", duration=step / FPS)
             for camera, entity in CAMERAS.items():
                 if camera in obs:
                     rec.log(entity, jpeg(obs[camera]))
-            _scalars(rec, "state", STATE_NAMES, obs.get("state"))
-            _scalars(rec, "joints", JOINT_NAMES, obs.get("joint_pos"))
-            _scalars(rec, "action", ACTION_NAMES, obs.get("action"))
-            rec.log("success", rr.Scalars(float(bool(ok))))
+        # The scalars go as columns, one call per series (a call per value and step cost
+        # ~0.3 s of a 280-step rollout's store).
+        steps = np.arange(len(frames))
+        times = [rr.TimeColumn("step", sequence=steps), rr.TimeColumn("time", duration=steps / FPS)]
+        _scalars(rec, times, "state", STATE_NAMES, [obs.get("state") for obs in frames])
+        _scalars(rec, times, "joints", JOINT_NAMES, [obs.get("joint_pos") for obs in frames])
+        _scalars(rec, times, "action", ACTION_NAMES, [obs.get("action") for obs in frames])
         if frames:
+            rec.send_columns(
+                "success", indexes=times, columns=rr.Scalars.columns(scalars=np.asarray(success, float))
+            )
+            rec.set_time("step", sequence=len(frames) - 1)
+            rec.set_time("time", duration=(len(frames) - 1) / FPS)
             outcome = "success: the goal holds" if any(success) else "failure: the goal was not reached"
             rec.log("log", rr.TextLog(f"{language}: {outcome} after {len(frames)} steps"))
     return out
 
 
-def _scalars(rec: Any, prefix: str, names: Sequence[str], values: Any) -> None:
+def _scalars(rec: Any, times: list[Any], prefix: str, names: Sequence[str], values: Sequence[Any]) -> None:
+    """One series per name over every step (none where the frames lack it)."""
     import rerun as rr
 
-    if values is None:
+    if not values or any(v is None for v in values):
         return
-    for name, value in zip(names, np.asarray(values, dtype=np.float64).reshape(-1), strict=False):
-        rec.log(f"{prefix}/{name}", rr.Scalars(float(value)))
+    table = np.stack([np.asarray(v, dtype=np.float64).reshape(-1) for v in values])
+    for name, column in zip(names, table.T, strict=False):
+        rec.send_columns(f"{prefix}/{name}", indexes=times, columns=rr.Scalars.columns(scalars=column))
 
 
 def write_saliency_rrd(

@@ -71,3 +71,32 @@ def test_rerun_gives_every_frame_its_own_picture_of_a_held_image(tmp_path: Path)
     assert blobs[0] == blobs[1] == blobs[2] and len(set(blobs[2:])) == 4
     for frame, data in zip(frames, blobs, strict=True):
         assert np.abs(decoded(data).astype(int) - frame["agentview"].astype(int)).mean() < 3
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")
+def test_rerun_scalars_are_the_frames_values_step_for_step(tmp_path: Path) -> None:
+    # The scalars go in as columns: each step's row still holds that step's values.
+    import rerun.recording as rd
+
+    from libero_bench.rollouts.rerun_log import write_rollout_rrd
+
+    frames = held_frames()
+    for t, frame in enumerate(frames):
+        frame["state"] = np.arange(8, dtype=np.float32) + 10 * t
+        frame["joint_pos"] = -np.arange(7, dtype=np.float32) - t
+    success = [False] * 5 + [True]
+    out = tmp_path / "r.rrd"
+    write_rollout_rrd(out, frames=frames, success=success, language="i", tags={}, recording_id="r")
+    table = rd.load_recording(str(out)).view(index="step", contents="/**").select().read_all()
+
+    def series(entity: str) -> list[float]:
+        return [cell[0] for cell in table.column(f"/{entity}:Scalars:scalars").to_pylist()]
+
+    assert table.column("step").to_pylist() == list(range(6))
+    assert series("state/eef_x") == [10.0 * t for t in range(6)]
+    assert series("state/gripper_right") == [7.0 + 10 * t for t in range(6)]
+    assert series("joints/joint_3") == [-2.0 - t for t in range(6)]
+    assert series("action/gripper") == [float(t) for t in range(6)]
+    assert series("success") == [0.0] * 5 + [1.0]
+    times = table.column("time").to_pylist()
+    assert [t.total_seconds() for t in times] == pytest.approx([t / 20 for t in range(6)])
