@@ -11,7 +11,9 @@ for the rest of the environment). The slots of a worker all simulate the same ta
 quality their environments are built without cameras and one
 :class:`~libero_data.sim.fast.renderer.OffscreenRenderer` draws every slot's scene, robosuite's
 pixels exactly (tested). A task that changes its images after drawing them (a robustness
-perturbation's ``observe`` hook) and ``fast`` rendering keep each environment's own cameras.
+perturbation's ``observe`` hook) keeps each environment's own cameras; with ``fast`` rendering
+each environment has its cameras, and the worker's environments of one scene share their fast
+renderers (:class:`~libero_data.sim.fast.images.FastImages`).
 
 Per call, each slot gets a chunk of actions. The first ``k - 1`` run physics only
 (:meth:`~libero_data.sim.LiberoEnv.advance`: no observation is built, no frame drawn); the cameras

@@ -211,3 +211,44 @@ def test_a_bad_render_quality_is_named() -> None:
 
     with pytest.raises(InputError, match="render quality must be full or fast"):
         EnvConfig(render_quality="medium")
+
+
+def test_environments_of_one_scene_share_their_fast_renderers_and_draw_the_same() -> None:
+    from libero_data.sim.fast import images
+
+    task = get_task("libero_object/0")
+    inits = task.init_states()
+    config = EnvConfig(image_size=64, render_quality="fast")
+    a, b = LiberoEnv(task, config), LiberoEnv(task, config)
+    try:
+        a.reset(inits[0], seed=0)
+        b.reset(inits[1], seed=1)
+        assert a.fast_images is not None and b.fast_images is not None
+        assert a.fast_images.renderer(a.sim.model._model) is b.fast_images.renderer(b.sim.model._model)
+        for _ in range(3):  # drawn in turns from one context: each its own scene
+            seen_a, _ = a.step(PUSH)
+            seen_b, _ = b.step(-PUSH)
+        a.close()  # the other keeps the renderers
+        assert len(images._SHARED) == 1
+        again_b = b.render("eye_in_hand")
+        assert np.array_equal(again_b, seen_b["eye_in_hand"])
+    finally:
+        a.close()
+        b.close()
+    assert images._SHARED == {}  # closed with the last of them
+    # Alone, the same start and actions: the same pixels as drawn in turns with another scene.
+    with LiberoEnv(task, config) as alone:
+        alone.reset(inits[0], seed=0)
+        for _ in range(3):
+            seen, _ = alone.step(PUSH)
+        assert np.array_equal(seen["sim_state"], seen_a["sim_state"])
+        for camera in CAMERAS:
+            assert np.array_equal(seen[camera], seen_a[camera]), camera
+    # Another size is another set of renderers.
+    with (
+        LiberoEnv(task, config) as one,
+        LiberoEnv(task, EnvConfig(image_size=96, render_quality="fast")) as two,
+    ):
+        one.reset(inits[0], seed=0)
+        two.reset(inits[0], seed=0)
+        assert len(images._SHARED) == 2

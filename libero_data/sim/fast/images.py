@@ -12,6 +12,7 @@ full-quality reference renderer that ``fast`` images are measured against.
 from __future__ import annotations
 
 import copy
+import threading
 from typing import Any
 
 import numpy as np
@@ -58,6 +59,19 @@ def fast_renderer(
     )
 
 
+#: The renderers of the environments that share them, by what they were built for (see
+#: :class:`FastImages`): [camera id -> (renderer, scene), environments using them].
+_SHARED: dict[tuple[Any, ...], list[Any]] = {}
+
+
+def _structure(model: Any) -> tuple[int, ...]:
+    """Counts that two builds of one scene have in common (a guard on the sharing key)."""
+    return (
+        model.ngeom, model.nmesh, model.nmat, model.ntex, model.ncam, model.nlight,
+        model.mesh_vert.size, model.mesh_face.size, model.tex_data.size,
+    )  # fmt: skip
+
+
 class FastImages:
     """One environment's ``fast`` images, and full-quality references to measure them by.
 
@@ -66,11 +80,27 @@ class FastImages:
     for those, whose distant meshes are coarser (:mod:`.distant`; a GL context each). The
     reference renderer is built on the first reference image. :meth:`renderer` and
     :meth:`fast_scene` name each camera's renderer and what it draws (for tests and benchmarks).
+
+    ``scene`` names what the environment was built from (its BDDL text, which holds any
+    perturbation): environments of one thread with the same ``scene``, size, cameras, backend
+    and cache share one set of renderers, built once (~4 CPU-seconds a scene) and closed with
+    the last of them. An image depends on the simulated state alone, never on what was drawn
+    before it (:class:`.near.NearDetail`), so sharing is what one environment does across its
+    resets; a GL context is current in one thread at a time, hence one set per thread.
     """
 
-    def __init__(self, size: int, camera_ids: list[int], backend: str | None, cache_dir: str | None) -> None:
+    def __init__(
+        self,
+        size: int,
+        camera_ids: list[int],
+        backend: str | None,
+        cache_dir: str | None,
+        scene: str | None = None,
+    ) -> None:
         self.size, self.camera_ids, self.backend, self.cache_dir = size, camera_ids, backend, cache_dir
+        self.scene = scene
         self._renderers: dict[int, tuple[OffscreenRenderer, FastScene]] | None = None  # camera id -> its own
+        self._shared_as: tuple[Any, ...] | None = None
         self._reference: OffscreenRenderer | None = None
 
     def renderer(self, model: Any, camera_id: int | None = None) -> OffscreenRenderer:
@@ -84,7 +114,18 @@ class FastImages:
 
     def _built(self, model: Any, camera_id: int | None) -> tuple[OffscreenRenderer, FastScene]:
         if self._renderers is None:
-            self._renderers = self._build(model)
+            if self.scene is None:
+                self._renderers = self._build(model)
+            else:
+                key = (
+                    threading.get_ident(), self.scene, self.size, tuple(self.camera_ids),
+                    self.backend, self.cache_dir, _structure(model),
+                )  # fmt: skip
+                entry = _SHARED.get(key)
+                if entry is None:
+                    entry = _SHARED[key] = [self._build(model), 0]
+                entry[1] += 1
+                self._renderers, self._shared_as = entry[0], key
         return self._renderers[self.camera_ids[0] if camera_id is None else camera_id]
 
     def _build(self, model: Any) -> dict[int, tuple[OffscreenRenderer, FastScene]]:
@@ -148,7 +189,16 @@ class FastImages:
         return self.renderer(model).gl_info(self.backend)
 
     def close(self) -> None:
+        """Close this environment's renderers (shared ones once their last environment closes)."""
         renderers = {id(r): r for r, _ in (self._renderers or {}).values()}
+        if self._shared_as is not None:
+            entry = _SHARED[self._shared_as]
+            entry[1] -= 1
+            if entry[1] > 0:
+                renderers = {}
+            else:
+                del _SHARED[self._shared_as]
+            self._shared_as = None
         for renderer in [*renderers.values(), self._reference]:
             if renderer is not None:
                 renderer.close()
