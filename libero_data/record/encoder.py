@@ -63,9 +63,18 @@ def uint8_statistics(counts: np.ndarray, quantiles: tuple[float, ...] = QUANTILE
 class _CameraThread(threading.Thread):
     """Encodes one camera's frames from a queue into an MP4 and counts its pixel values."""
 
-    def __init__(self, path: Path, fps: int, config: Any, encoder_threads: int | None, maxsize: int):
+    def __init__(
+        self,
+        path: Path,
+        fps: int,
+        config: Any,
+        encoder_threads: int | None,
+        maxsize: int,
+        key_spacing: int | None = None,
+    ):
         super().__init__(daemon=True, name=f"encode-{path.stem}")
         self.path = path
+        self.key_spacing = key_spacing
         self.fps = fps
         self.config = config
         self.encoder_threads = encoder_threads
@@ -81,6 +90,8 @@ class _CameraThread(threading.Thread):
         container: Any = None
         stream: Any = None
         counts = np.zeros((0, 256), dtype=np.int64)  # replaced at the first frame
+        previous: np.ndarray | None = None
+        last_key = 0
         try:
             while True:
                 frame = self.frames.get()
@@ -99,6 +110,12 @@ class _CameraThread(threading.Thread):
                     stream.time_base = Fraction(1, self.fps)
                     counts = self.counts = np.zeros((frame.shape[2], 256), dtype=np.int64)
                 picture = av.VideoFrame.from_ndarray(frame, format="rgb24")
+                if self.key_spacing is not None:
+                    new = previous is None or not np.array_equal(frame, previous)
+                    if new and (previous is None or self.written - last_key >= self.key_spacing):
+                        picture.pict_type = av.video.frame.PictureType.I
+                        last_key = self.written
+                    previous = frame
                 picture.pts = self.written
                 picture.time_base = Fraction(1, self.fps)
                 container.mux(stream.encode(picture))
@@ -137,11 +154,27 @@ class EpisodeVideoEncoder:
 
     Frames must be ``uint8`` RGB, height × width × 3. A full queue makes ``feed_frame`` wait
     (an offline renderer can wait; a dropped frame would be a corrupt episode).
+
+    ``key_spacing`` (for frames that repeat, as a rollout's held images do): a keyframe starts
+    at the first new image at least that many frames after the last keyframe, and a repeated
+    image never starts one; the codec's own GOP (``g``) should then be long, a cap only. With
+    every image new, keyframes fall every ``key_spacing`` frames, as a codec GOP of that size
+    puts them; with images held for a policy's chunk, one per new image instead of an intra
+    frame every other frame of the hold (those cost most of the encoding). A frame decodes
+    from its keyframe through at most ``key_spacing - 1`` frames plus repeats, which copy.
     """
 
-    def __init__(self, fps: int, rgb_encoder: Any = None, encoder_threads: int | None = 1, maxsize: int = 64):
+    def __init__(
+        self,
+        fps: int,
+        rgb_encoder: Any = None,
+        encoder_threads: int | None = 1,
+        maxsize: int = 64,
+        key_spacing: int | None = None,
+    ):
         from lerobot.datasets.video_utils import rgb_encoder_defaults
 
+        self.key_spacing = key_spacing
         self.fps = fps
         self.config = rgb_encoder or rgb_encoder_defaults()
         self.encoder_threads = encoder_threads
@@ -164,6 +197,7 @@ class EpisodeVideoEncoder:
                 self.config,
                 self.encoder_threads,
                 self.maxsize,
+                self.key_spacing,
             )
             thread.start()
             self._threads[key] = thread
@@ -215,10 +249,42 @@ class EpisodeVideoEncoder:
         self.cancel_episode()
 
 
+def embed_only_what_needs_it() -> None:
+    """Make LeRobot's episode writer skip ``embed_images`` where no feature stores files.
+
+    LeRobot runs ``datasets``' ``embed_table_storage`` over every row of each episode before
+    writing its Parquet, to put image files' bytes into the table. Our shards keep images in
+    videos, so no column needs it and each row comes back as it was, at ~0.5 s of a 280-frame
+    episode's store (``datasets`` rebuilds the features from the schema row by row). This
+    wraps the writer's ``embed_images``: unchanged where any feature needs embedding, the
+    dataset itself where none does: the same rows and schema, less the ``fingerprint`` of
+    ``datasets``' cache that the skipped ``map`` left in the Parquet's metadata
+    (tests/record/test_encoder.py). Idempotent; called when a shard dataset is first made,
+    never at import.
+    """
+    from datasets.features.features import require_storage_embed
+    from lerobot.datasets import dataset_writer
+
+    original = dataset_writer.embed_images
+    if getattr(original, "wrapped_by_libero_data", False):
+        return
+
+    def embed_images(dataset: Any) -> Any:
+        if any(require_storage_embed(feature) for feature in dataset.features.values()):
+            return original(dataset)
+        return dataset
+
+    embed_images.wrapped_by_libero_data = True  # type: ignore[attr-defined]
+    dataset_writer.embed_images = embed_images
+
+
 @functools.cache
-def shard_dataset_class() -> Any:
-    """``LeRobotDataset`` streaming its videos through :class:`EpisodeVideoEncoder` (imported lazily)."""
+def shard_dataset_class(key_spacing: int | None = None) -> Any:
+    """``LeRobotDataset`` streaming its videos through :class:`EpisodeVideoEncoder` (imported
+    lazily), with keyframes placed by ``key_spacing`` where given."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    embed_only_what_needs_it()
 
     class ShardDataset(LeRobotDataset):
         @staticmethod
@@ -229,6 +295,8 @@ def shard_dataset_class() -> Any:
             encoder_queue_maxsize: int,
             encoder_threads: int | None,
         ) -> EpisodeVideoEncoder:
-            return EpisodeVideoEncoder(fps, rgb_encoder, encoder_threads, maxsize=encoder_queue_maxsize)
+            return EpisodeVideoEncoder(
+                fps, rgb_encoder, encoder_threads, maxsize=encoder_queue_maxsize, key_spacing=key_spacing
+            )
 
     return ShardDataset

@@ -127,6 +127,7 @@ def write_frames(
     info: dict[str, Any],
     length: int | None = None,
     rgb_encoder: Any = None,
+    key_spacing: int | None = None,
 ) -> Path:
     """Write observed frames (env observations with images and an ``action``) as a one-episode shard.
 
@@ -134,7 +135,9 @@ def write_frames(
     while acting). ``frames`` may be a list or an iterator (then ``length`` says how many it
     gives, and ``success`` may be filled in while it runs). The folder appears atomically: a
     LeRobot dataset, ``episode.mcap`` and ``episode.json`` (``info`` plus the length).
-    ``rgb_encoder`` is LeRobot's ``RGBEncoderConfig`` of the videos (default: LeRobot's).
+    ``rgb_encoder`` is LeRobot's ``RGBEncoderConfig`` of the videos (default: LeRobot's);
+    ``key_spacing`` places keyframes by new images for frames that repeat
+    (:class:`~libero_data.record.encoder.EpisodeVideoEncoder`).
     """
     if length is None:
         frames = list(frames)
@@ -150,6 +153,7 @@ def write_frames(
         sim_state_width=sim_state_width,
         info=info,
         rgb_encoder=rgb_encoder,
+        key_spacing=key_spacing,
     )()
 
 
@@ -165,6 +169,7 @@ def _start(
     sim_state_width: int,
     info: dict[str, Any],
     rgb_encoder: Any = None,
+    key_spacing: int | None = None,
 ) -> Callable[[], Path]:
     """Feed every frame to a new shard in a scratch folder beside ``out``; returns the call
     that writes the rest and renames the folder to ``out`` (the scratch folder is removed if
@@ -173,7 +178,7 @@ def _start(
 
     tmp = scratch_folder(out)
     try:
-        dataset = shard_dataset_class().create(
+        dataset = shard_dataset_class(key_spacing).create(
             SHARD_REPO,
             fps=FPS,
             features=dataset_features(layout, sim_state_width),
