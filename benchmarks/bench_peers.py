@@ -59,6 +59,7 @@ class Row:
     seconds: float = float("nan")
     episodes: int = 0
     version: str = ""
+    phases: dict[str, float] | None = None  # ours: where the time went (results.json), summed
 
 
 def _peer_python(name: str) -> str:
@@ -141,11 +142,21 @@ def run_ours(args: argparse.Namespace, url: str, work: Path, workers: int, quali
 
     out = work / f"ours-{workers}-{quality}"
     seconds = _timed(_eval(url, args, out, workers, quality, args.episodes))
-    episodes = len(json.loads((out / "results.json").read_text())["rollouts"])
+    results = json.loads((out / "results.json").read_text())
+    episodes = len(results["rollouts"])
+    phases: dict[str, float] = {}
+    for session in results.get("sessions", []):
+        for name, value in session.get("phases", {}).items():
+            phases[name] = phases.get(name, 0.0) + float(value)
     fast = ", fast (not the standard's pixels)" if quality == "fast" else ""
     label = f"libero-bench eval --protocol standard, {workers} worker{'s' * (workers > 1)}{fast}"
     protocol = "openpi's requests exactly; only frames the policy reads drawn; every rollout stored"
-    return Row(label, OURS, workers, protocol, seconds, episodes, f"libero-data {versions()['libero-data']}")
+    version = f"libero-data {versions()['libero-data']}"
+    return Row(label, OURS, workers, protocol, seconds, episodes, version, phases)
+
+
+#: The phases of our rows that the table names (results.json's, summed over workers' rollouts).
+PHASES = {"step_s": "steps", "store_s": "storing", "build_s": "builds", "reset_s": "resets"}
 
 
 def machine_limit(args: argparse.Namespace) -> dict[str, float]:
@@ -197,6 +208,12 @@ def table(rows: list[Row], limit: dict[str, float], args: argparse.Namespace) ->
         f"{limit['frame_ms']:.0f} ms per 256 px frame, so at least {limit['episode_s']:.1f} s per episode "
         f"({args.max_steps + 10} steps, {math.ceil(args.max_steps / 5) + 1} observations of two frames): "
         f"{per_core:.2f} rollouts/min per core, the policy's time aside.",
+    ]
+    for row in rows:
+        if row.phases:
+            went = ", ".join(f"{label} {row.phases[k]:.0f}" for k, label in PHASES.items() if k in row.phases)
+            lines.append(f"- {row.label}: seconds summed over its rollouts: {went}.")
+    lines += [
         "",
         "Versions: " + "; ".join(sorted({f"{r.harness}: {r.version}" for r in rows if r.version})) + ".",
     ]
