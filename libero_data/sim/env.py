@@ -124,11 +124,7 @@ class LiberoEnv:
             from libero_data.sim.fast.images import FastImages
 
             ids = [self.camera_id(c) for c in self.config.cameras]
-            # Shared with this thread's other environments of the same scene (FastImages).
-            scene = Path(self.bddl_path).read_text()
-            self.fast_images = FastImages(
-                self.config.image_size, ids, self.backend, self.config.mesh_cache, scene
-            )
+            self.fast_images = FastImages(self.config.image_size, ids, self.backend, self.config.mesh_cache)
         self._closed = False
 
     # construction ---------------------------------------------------------------------

@@ -225,6 +225,10 @@ def test_environments_of_one_scene_share_their_fast_renderers_and_draw_the_same(
         b.reset(inits[1], seed=1)
         assert a.fast_images is not None and b.fast_images is not None
         assert a.fast_images.renderer(a.sim.model._model) is b.fast_images.renderer(b.sim.model._model)
+        # The key leaves out what a reset changes, and tells another scene apart.
+        assert images.scene_key(a.sim.model._model) == images.scene_key(b.sim.model._model)
+        with LiberoEnv(get_task("libero_goal/0"), EnvConfig(cameras=())) as other:
+            assert images.scene_key(other.sim.model._model) != images.scene_key(a.sim.model._model)
         for _ in range(3):  # drawn in turns from one context: each its own scene
             seen_a, _ = a.step(PUSH)
             seen_b, _ = b.step(-PUSH)

@@ -12,6 +12,7 @@ full-quality reference renderer that ``fast`` images are measured against.
 from __future__ import annotations
 
 import copy
+import hashlib
 import threading
 from typing import Any
 
@@ -64,12 +65,31 @@ def fast_renderer(
 _SHARED: dict[tuple[Any, ...], list[Any]] = {}
 
 
-def _structure(model: Any) -> tuple[int, ...]:
-    """Counts that two builds of one scene have in common (a guard on the sharing key)."""
-    return (
-        model.ngeom, model.nmesh, model.nmat, model.ntex, model.ncam, model.nlight,
-        model.mesh_vert.size, model.mesh_face.size, model.tex_data.size,
-    )  # fmt: skip
+#: Model arrays that a reset changes (LIBERO places its fixtures by their bodies' positions;
+#: site colours), left out of :func:`scene_key`: one environment draws across its resets too.
+RESET_FIELDS = frozenset({"body_pos", "site_rgba"})
+#: Arrays larger than this (bytes: textures, meshes) enter :func:`scene_key` by a strided sample.
+SAMPLED_ABOVE = 1 << 16
+
+
+def scene_key(model: Any) -> str:
+    """What a scene's renderers are built from, as 32 hex digits: every array of the compiled
+    model but those a reset changes (:data:`RESET_FIELDS`), the large ones by a sample of every
+    1,021st byte (a texture or mesh swapped for another of the same size differs in nearly
+    every byte), and the model's names. Two builds of one task (and perturbation) agree; ~10 ms.
+    """
+    digest = hashlib.blake2b(digest_size=16)
+    for name in sorted(dir(model)):
+        if name.startswith("_") or name in RESET_FIELDS:
+            continue
+        value = getattr(model, name)
+        if not isinstance(value, np.ndarray):
+            continue
+        data = np.ascontiguousarray(value).reshape(-1).view(np.uint8)
+        digest.update(f"{name}:{value.dtype}:{value.shape}".encode())
+        digest.update(np.ascontiguousarray(data[::1021]) if data.nbytes > SAMPLED_ABOVE else data)
+    digest.update(bytes(model.names))
+    return digest.hexdigest()
 
 
 class FastImages:
@@ -81,24 +101,16 @@ class FastImages:
     reference renderer is built on the first reference image. :meth:`renderer` and
     :meth:`fast_scene` name each camera's renderer and what it draws (for tests and benchmarks).
 
-    ``scene`` names what the environment was built from (its BDDL text, which holds any
-    perturbation): environments of one thread with the same ``scene``, size, cameras, backend
-    and cache share one set of renderers, built once (~4 CPU-seconds a scene) and closed with
-    the last of them. An image depends on the simulated state alone, never on what was drawn
-    before it (:class:`.near.NearDetail`), so sharing is what one environment does across its
-    resets; a GL context is current in one thread at a time, hence one set per thread.
+    Environments of one thread whose scenes are the same (:func:`scene_key`: a worker's
+    environments of one task), at the same size, cameras, backend and cache, share one set of
+    renderers, built once (~4 CPU-seconds a scene) and closed with the last of them. An image
+    depends on the simulated state alone, never on what was drawn before it
+    (:class:`.near.NearDetail`), so sharing is what one environment does across its resets; a
+    GL context is current in one thread at a time, hence one set per thread.
     """
 
-    def __init__(
-        self,
-        size: int,
-        camera_ids: list[int],
-        backend: str | None,
-        cache_dir: str | None,
-        scene: str | None = None,
-    ) -> None:
+    def __init__(self, size: int, camera_ids: list[int], backend: str | None, cache_dir: str | None) -> None:
         self.size, self.camera_ids, self.backend, self.cache_dir = size, camera_ids, backend, cache_dir
-        self.scene = scene
         self._renderers: dict[int, tuple[OffscreenRenderer, FastScene]] | None = None  # camera id -> its own
         self._shared_as: tuple[Any, ...] | None = None
         self._reference: OffscreenRenderer | None = None
@@ -114,18 +126,15 @@ class FastImages:
 
     def _built(self, model: Any, camera_id: int | None) -> tuple[OffscreenRenderer, FastScene]:
         if self._renderers is None:
-            if self.scene is None:
-                self._renderers = self._build(model)
-            else:
-                key = (
-                    threading.get_ident(), self.scene, self.size, tuple(self.camera_ids),
-                    self.backend, self.cache_dir, _structure(model),
-                )  # fmt: skip
-                entry = _SHARED.get(key)
-                if entry is None:
-                    entry = _SHARED[key] = [self._build(model), 0]
-                entry[1] += 1
-                self._renderers, self._shared_as = entry[0], key
+            key = (
+                threading.get_ident(), scene_key(model), self.size, tuple(self.camera_ids),
+                self.backend, self.cache_dir,
+            )  # fmt: skip
+            entry = _SHARED.get(key)
+            if entry is None:
+                entry = _SHARED[key] = [self._build(model), 0]
+            entry[1] += 1
+            self._renderers, self._shared_as = entry[0], key
         return self._renderers[self.camera_ids[0] if camera_id is None else camera_id]
 
     def _build(self, model: Any) -> dict[int, tuple[OffscreenRenderer, FastScene]]:
