@@ -176,6 +176,7 @@ ROOMS = {
         "evaluation",
         "analysis",
         "robustness",
+        "registry_docs",
         "cli",
     ),
 }

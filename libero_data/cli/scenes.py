@@ -44,12 +44,20 @@ def contact_sheet_cmd(
         typer.Option(
             "--kind",
             help="Instead: what each severity level of a variant kind looks like (levels 0-5 of one task), "
-            "e.g. camera; comma-separated or 'all' writes one PNG per kind into the folder --out.",
+            "e.g. camera; comma-separated or 'all' writes one image per kind into the folder --out "
+            "(cards/robustness/ holds every kind's: libero_object --kind all --format jpg --out cards/robustness).",
         ),
     ] = None,
     task: Annotated[
         int, typer.Option("--task", help="With --kind: the task's index in the suite.", min=0)
     ] = 0,
+    image_format: Annotated[
+        str,
+        typer.Option(
+            "--format",
+            help="With several kinds, or --out a folder: the images' format, png or jpg (else --out's suffix decides).",
+        ),
+    ] = "png",
 ) -> None:
     """A PNG grid: first and last agentview frame of one expert episode per task, with its instruction.
 
@@ -60,7 +68,11 @@ def contact_sheet_cmd(
     from libero_data.tasks import get_suite
 
     if kind is not None:
-        _kind_sheets(suite, kind, task, out, size, seed)
+        if image_format not in ("png", "jpg"):
+            from libero_data.errors import InputError
+
+            raise InputError(f"--format must be png or jpg, got {image_format!r}", field="format")
+        _kind_sheets(suite, kind, task, out, size, seed, image_format)
         return
     tasks = list(get_suite(suite).tasks[:count])
     with console().status(f"running the expert on {len(tasks)} task(s)"):
@@ -68,7 +80,9 @@ def contact_sheet_cmd(
     say(f"wrote {path}")
 
 
-def _kind_sheets(suite: str, kinds: str, index: int, out: Path, size: int, seed: int) -> None:
+def _kind_sheets(
+    suite: str, kinds: str, index: int, out: Path, size: int, seed: int, image_format: str
+) -> None:
     from libero_data.errors import InputError
     from libero_data.perturb.levels import KINDS
     from libero_data.procedural.kind_sheet import kind_sheet
@@ -85,6 +99,6 @@ def _kind_sheets(suite: str, kinds: str, index: int, out: Path, size: int, seed:
         raise InputError(f"--task {index}: suite {suite} has {len(tasks)} tasks")
     for i, k in enumerate(chosen, 1):
         with console().status(f"{k} ({i}/{len(chosen)}): rendering levels 0-5"):
-            target = out / f"{k}.png" if len(chosen) > 1 else out
+            target = out / f"{k}.{image_format}" if len(chosen) > 1 or out.is_dir() else out
             path = kind_sheet(tasks[index], k, target, size=size, seed=seed)
         say(f"wrote {path}")

@@ -196,6 +196,11 @@ def test_contact_sheet_of_a_kind_names_what_is_wrong(tmp_path: Path) -> None:
         "contact-sheet", "libero_object", "--kind", "camera", "--task", "99", "-o", str(tmp_path)
     )
     assert result.returncode != 0 and "--task 99" in result.stderr
+    result = run_cli(
+        "contact-sheet", "libero_object", "--kind", "camera", "--format", "gif", "-o", str(tmp_path)
+    )
+    assert result.returncode != 0 and "--format must be png or jpg" in result.stderr
+    assert "Traceback" not in result.stderr
     assert not list(tmp_path.iterdir())
 
 
@@ -205,12 +210,22 @@ def test_contact_sheet_of_a_kind_shows_six_levels(tmp_path: Path) -> None:
 
     from tests.pipeline.conftest import run_cli
 
-    out = tmp_path / "sheet.png"
+    # Into a folder, as cards/robustness/ is made: <kind>.jpg.
     result = run_cli(
-        "contact-sheet", "libero_object", "--kind", "lighting", "--size", "48", "--out", str(out)
+        "contact-sheet",
+        "libero_object",
+        "--kind",
+        "lighting",
+        "--size",
+        "48",
+        "--format",
+        "jpg",
+        "--out",
+        str(tmp_path),
     )
     assert result.returncode == 0, result.stderr[-2000:]
-    with Image.open(out) as img:
+    with Image.open(tmp_path / "lighting.jpg") as img:
+        assert img.format == "JPEG"
         assert img.width > 2 * img.height  # six columns (the source and levels 1-5) over two rows
 
 

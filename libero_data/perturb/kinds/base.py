@@ -7,8 +7,10 @@ BDDL) and, for the former, how the simulator applies it (``apply_scene`` once th
 ``start_robot`` after each reset, ``observe`` on each observation). ``keeps_layout`` says which
 start its contact-sheet frame uses (the source's first stored state, or the sampler's).
 
-To add a kind, copy the module of the kind most like it (``lighting.py`` for one the simulator
-applies, ``language.py`` for one that rewrites the task), give it the next ``order`` and a test.
+To add a kind, copy the module of the kind whose hook is like its own (``lighting.py``:
+``apply_scene``; ``robot_init.py``: ``start_robot``; ``noise.py``: ``observe``; ``language.py``:
+``vary``), give it the next ``order`` and a test (ARCHITECTURE.md, "How to add…", states each
+hook's contract).
 """
 
 from __future__ import annotations
