@@ -44,6 +44,13 @@ NUMBERS = [
 ]
 
 
+def ours(entry: Any) -> bool:
+    """Whether a registry entry is defined in this project's packages (a test may register a
+    throw-away entry in its own process, which the documents do not list)."""
+    module = entry if isinstance(entry, str) else entry.__module__
+    return module.startswith(("libero_data.", "libero_bench."))
+
+
 @dataclass(frozen=True)
 class Block:
     """One kind of block: the registry's entry names, and the text made from them."""
@@ -70,7 +77,7 @@ def first_sentence(obj: Any) -> str:
 def _kinds() -> list[Any]:
     from libero_data.perturb.kinds import all_kinds
 
-    return list(all_kinds())
+    return [k for k in all_kinds() if ours(type(k))]
 
 
 def kind_names() -> str:
@@ -114,7 +121,7 @@ def _table(header: str, rows: Iterable[tuple[str, str]]) -> str:
 def _algorithms() -> list[Any]:
     from libero_bench.algos import ALGO_CONFIGS, algo_names
 
-    return [ALGO_CONFIGS.get(name) for name in algo_names()]
+    return [c for c in (ALGO_CONFIGS.get(name) for name in algo_names()) if ours(c)]
 
 
 def algorithms_table() -> str:
@@ -124,7 +131,7 @@ def algorithms_table() -> str:
 def _policies() -> list[Any]:
     from libero_bench.policies import POLICY_CONFIGS, policy_names
 
-    return [POLICY_CONFIGS.get(name) for name in policy_names()]
+    return [c for c in (POLICY_CONFIGS.get(name) for name in policy_names()) if ours(c)]
 
 
 def policies_table() -> str:
@@ -135,7 +142,7 @@ def policies_table() -> str:
 def _policy_kinds() -> list[Any]:
     from libero_bench.rollouts.policy_kinds import policy_kinds
 
-    return list(policy_kinds())
+    return [k for k in policy_kinds() if ours(k.source)]
 
 
 def policy_kinds_table() -> str:
@@ -146,7 +153,7 @@ def policy_kinds_table() -> str:
 def _sources() -> list[Any]:
     from libero_data.pipeline.sources import demo_sources
 
-    return list(demo_sources())
+    return [s for s in demo_sources() if ours(type(s))]
 
 
 def sources_table() -> str:

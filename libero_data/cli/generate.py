@@ -29,6 +29,7 @@ from libero_data.cli.common import (
     user_errors,
 )
 from libero_data.perturb.levels import KINDS, SCENE_KINDS  # the registry's kinds, for --help
+from libero_data.pipeline.sources import source_names  # the registry's sources, for --help
 
 Tasks = Annotated[
     list[str] | None,
@@ -125,6 +126,14 @@ Starts = Annotated[
         "'stored' (LIBERO's 50 stored init states, which the paper's evaluation starts from, then the sampler).",
     ),
 ]
+Source = Annotated[
+    str | None,
+    typer.Option(
+        "--source",
+        help="The demonstration source that makes the episodes, by name: "
+        f"{', '.join(source_names())} (default: the scripted expert; `import` and `rerender` name theirs).",
+    ),
+]
 ArmNoise = Annotated[
     float,
     typer.Option(
@@ -199,6 +208,7 @@ def generate_cmd(
     image_size: GenImageSize = None,
     features: Features = "libero-data",
     starts: Starts = "sampler",
+    source: Source = None,
     arm_noise: ArmNoise = 0.02,
     render_quality: RenderQuality = "full",
     workers: Workers = 1,
@@ -252,7 +262,12 @@ def generate_cmd(
         render_quality=render_quality,
         arm_noise=arm_noise,
         max_length=length_bound,
+        source=source or "",
     )
+    if source:  # an unknown name, or a source that cannot make this request: one sentence now
+        from libero_data.pipeline.sources import source_of
+
+        source_of(request)
     command = "libero-data generate " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     from libero_data.pipeline.generate import check_output
 

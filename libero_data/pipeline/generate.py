@@ -236,7 +236,9 @@ def finished(out: Path, request: GenerateRequest) -> Progress | None:
     meta = json.loads(meta_path.read_text())
     if not meta.get("complete"):
         return None
-    changed = changed_keys(GenerateRequest.upgrade(meta["request"]), request.to_dict())
+    changed = changed_keys(
+        GenerateRequest.upgrade(meta["request"]), GenerateRequest.upgrade(request.to_dict())
+    )
     if changed:
         raise SettingsChanged(
             f"{out} holds a finished dataset made with different settings ({', '.join(changed)}); "
@@ -285,7 +287,7 @@ def generate(
         return done
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     with folder.locked(owner=out):
-        folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)
+        folder.claim(request.to_dict(), name="request.json", owner=out, upgrade=GenerateRequest.upgrade)
         recover(out, folder.path("publish.json"))
         folder.clean(*LEFTOVERS)
         width_file = folder.path("sim_state_width.json")
@@ -325,6 +327,6 @@ def check_output(request: GenerateRequest, out: Path) -> Progress | None:
     _check_out_dir(out, folder)
     folder.check_free(owner=out)
     folder.claim(
-        request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy, record=False
+        request.to_dict(), name="request.json", owner=out, upgrade=GenerateRequest.upgrade, record=False
     )
     return None

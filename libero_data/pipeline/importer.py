@@ -225,7 +225,7 @@ def run_import(
             write_own_suite(out, [by_task[i] for i in request.tasks])
         folder = WorkFolder(out / DATASET_WORK, "dataset")
         with folder.locked(owner=out):
-            folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)
+            folder.claim(request.to_dict(), name="request.json", owner=out, upgrade=GenerateRequest.upgrade)
             import_records(request, by_task, folder.root, on_step=on_step)
     return generate(
         request,

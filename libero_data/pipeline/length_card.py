@@ -148,10 +148,10 @@ def dataset_note(request: GenerateRequest, rows: Sequence[TaskLengths]) -> str:
             f"{counted(episodes, 'episode')} {'is' if over == 1 else 'are'} longer than their task's standard limit."
         )
     words = bound_words(request, rows)
-    if request.source:
+    if request.rerender_of:
         longer = sum(1 for r in rows for n in r.lengths if r.bound is not None and n > r.bound)
         return (
-            f"**Length bound: {words}.** These episodes were searched under it for `{request.source}`, whose "
+            f"**Length bound: {words}.** These episodes were searched under it for `{request.rerender_of}`, whose "
             f"card says what it cost; {longer} of the {counted(episodes, 'episode')} here "
             f"{'is' if longer == 1 else 'are'} longer than it."
         )

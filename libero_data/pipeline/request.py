@@ -7,6 +7,7 @@ equal datasets. The work is split into *slots*, one per (task, episode number).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -59,7 +60,10 @@ class GenerateRequest(Config):
     starts: str = "sampler"
     features: str = "libero-data"  # the naming profile (libero_data.record.features.PROFILES)
     cameras: tuple[str, ...] = CAMERAS
-    source: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
+    #: The demonstration source that makes the episodes, by its registered name
+    #: (:mod:`libero_data.pipeline.sources`); "": the first that claims the request, in order.
+    source: str = ""
+    rerender_of: str = ""  # re-rendered from this dataset's stored states (libero-data rerender)
     render_quality: str = "full"  # libero_data.sim.env.RENDER_QUALITIES
     arm_noise: float = ARM_INIT_NOISE  # rad per arm joint on sampler starts (libero_data.sim.arm)
     # Imported demonstrations (libero-data import), read by the demonstration source that claims
@@ -72,6 +76,26 @@ class GenerateRequest(Config):
     #: limit) or None (no bound). A searched attempt still going at the bound is stopped there and
     #: counts as failed; sources that do not search keep their episodes (their cards count those over it).
     max_length: int | str | None = STANDARD
+
+    #: Fields a request writes only when set: requests made before them read the same.
+    written_when_set: ClassVar[tuple[str, ...]] = ("rerender_of",)
+
+    @classmethod
+    def upgrade(cls, data: Any) -> dict[str, Any]:
+        """``data`` as any version wrote it: before a request could name its demonstration
+        source, ``source`` held the dataset a re-render was made from (now ``rerender_of``)."""
+        data = dict(data)
+        named = re.fullmatch(r"[a-z][a-z0-9_]*", str(data.get("source", "")))
+        if "rerender_of" not in data and data.get("source") and not named:  # a folder's path
+            data["rerender_of"], data["source"] = data["source"], ""
+        return {"rerender_of": "", **super().upgrade(data)}
+
+    def to_dict(self) -> dict[str, Any]:
+        data = super().to_dict()
+        for name in self.written_when_set:
+            if data.get(name) == "":
+                del data[name]
+        return data
 
     def __post_init__(self) -> None:
         check_arm_noise(self.arm_noise)
@@ -164,6 +188,7 @@ def resolve_request(
     render_quality: str = "full",
     arm_noise: float = ARM_INIT_NOISE,
     max_length: int | str | None = STANDARD,
+    source: str = "",
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
     from libero_data.tasks import get_suite
@@ -192,6 +217,7 @@ def resolve_request(
         render_quality=render_quality,
         arm_noise=float(arm_noise),
         max_length=max_length,
+        source=source,
     )
 
 

@@ -48,7 +48,7 @@ def rerender_request(
         image_size=image_size,
         features=features,
         cameras=tuple(cameras),
-        source=str(source.resolve()),
+        rerender_of=str(source.resolve()),
         render_quality=render_quality,
     )
 
@@ -112,7 +112,7 @@ def rerender(
     folder = WorkFolder(out / DATASET_WORK, "dataset")
     if not (out / "meta" / "libero.json").is_file():  # not finished before
         with folder.locked(owner=out):
-            folder.claim(request.to_dict(), name="request.json", owner=out, legacy=GenerateRequest.legacy)
+            folder.claim(request.to_dict(), name="request.json", owner=out, upgrade=GenerateRequest.upgrade)
             for key, record in _records(source, request).items():
                 path = folder.root / search_path(key)
                 if not path.is_file():

@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import shutil
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -74,13 +74,16 @@ class WorkFolder:
         advice: str = "use the same command to continue it, or another output folder",
         legacy: Mapping[str, Any] | None = None,
         record: bool = True,
+        upgrade: Callable[[Mapping[str, Any]], dict[str, Any]] | None = None,
     ) -> dict[str, Any] | None:
         """Record ``settings`` as the folder's, or check them against those recorded
         (``record=False``: check only, write nothing).
 
         Returns the recorded settings (None on first use). Raises :class:`SettingsChanged`
         naming the keys that differ (``ignore`` lists keys that may change between runs;
-        ``legacy`` gives the value of a key that folders made before it existed implied).
+        ``legacy`` gives the value of a key that folders made before it existed implied;
+        ``upgrade``, where given, reads both the recorded and the asked settings as the current
+        version does: a config's own :meth:`~libero_data.config.Config.upgrade`).
         """
         path = self.root / name
         if not path.is_file():
@@ -90,14 +93,14 @@ class WorkFolder:
         recorded = read_json(path)
         if not isinstance(recorded, dict):
             raise FolderError(f"{path} is not a settings file of libero-data or libero-bench")
-        saved = {**(legacy or {}), **recorded}
-        changed = changed_keys(saved, settings, ignore)
+        saved = upgrade(recorded) if upgrade else {**(legacy or {}), **recorded}
+        asked = upgrade(settings) if upgrade else settings
+        changed = changed_keys(saved, asked, ignore)
         if changed:
             values = [
-                f"{k} {saved.get(k)!r} there, {settings.get(k)!r} asked"
+                f"{k} {saved.get(k)!r} there, {asked.get(k)!r} asked"
                 for k in changed
-                if isinstance(saved.get(k), (int, float, str))
-                and isinstance(settings.get(k), (int, float, str))
+                if isinstance(saved.get(k), (int, float, str)) and isinstance(asked.get(k), (int, float, str))
             ]
             raise SettingsChanged(
                 f"{owner or self.root} holds a {self.what} made with different settings "

@@ -27,13 +27,8 @@ STEPS = 4
 
 
 class HeldStill(DemoSource):
-    """A throw-away source: logs (files ending ``.stilllog``) of an arm held still for a few
-    steps from a seeded placement; made in the workers, as the expert's episodes are."""
-
-    order = 10  # before LIBERO's HDF5 files, which claim any imported files
-
-    def claims(self, request: GenerateRequest) -> bool:
-        return any(name.endswith(".stilllog") for name in request.imported)
+    """A throw-away source: an arm held still for a few steps from a seeded placement; made in
+    the workers, as the expert's episodes are, for requests that name it (the default ``claims``)."""
 
     def search(self, cache: WorkerCache, task: Any, request: GenerateRequest, slot: Slot) -> EpisodeRecord:
         env, _expert = expert_env(cache, task, request.image_size, tuple(request.cameras))
@@ -51,7 +46,7 @@ class HeldStill(DemoSource):
             actions=actions,
             states=np.asarray(states),
             final_state=np.asarray(env.get_state()),
-            details={"demonstrator": "nobody", "source_file": request.imported[0]},
+            details={"demonstrator": "nobody", "held_steps": STEPS},
         )
 
     def card(self, request: GenerateRequest, suite: str, infos: list[dict[str, Any]]) -> CardPart:
@@ -75,8 +70,66 @@ def test_sources_are_asked_in_order_and_the_expert_makes_any_other_request() -> 
     plain = GenerateRequest(suite="libero_goal", tasks=(7,))
     assert source_of(plain).name == "scripted"
     assert source_of(plain.replace(imported=("a_demo.hdf5",))).name == "libero_hdf5"
-    assert source_of(plain.replace(imported=("a.stilllog",))).name == "held_still"
-    assert source_of(plain.replace(imported=("a_demo.hdf5",), source="/data/x")).name == "stored_states"
+    assert source_of(plain.replace(imported=("a_demo.hdf5",), rerender_of="/data/x")).name == "stored_states"
+    # A request names its source; one added in a file makes only the requests that name it.
+    assert source_of(plain.replace(source="held_still")).name == "held_still"
+    assert source_of(plain.replace(source="scripted", imported=("a_demo.hdf5",))).name == "scripted"
+    # A re-render is made from stored states whatever source made them.
+    assert source_of(plain.replace(source="held_still", rerender_of="/data/x")).name == "stored_states"
+
+
+def test_a_named_source_is_known_and_can_make_the_request() -> None:
+    from libero_data.errors import InputError
+    from libero_data.pipeline.request import resolve_request
+
+    plain = GenerateRequest(suite="libero_goal", tasks=(7,))
+    with pytest.raises(
+        InputError, match=r"unknown demonstration source 'replay'; choose among stored_states, "
+    ):
+        source_of(plain.replace(source="replay"))
+    with pytest.raises(
+        InputError, match="'libero_hdf5' cannot make this request: it needs LIBERO HDF5 files"
+    ):
+        source_of(plain.replace(source="libero_hdf5"))
+    assert resolve_request("libero_goal", ["7"], source="held_still").source == "held_still"
+
+
+def test_generate_names_a_source_it_does_not_know_in_one_sentence(tmp_path: Path) -> None:
+    from tests.pipeline.conftest import run_cli
+
+    out = tmp_path / "d"
+    result = run_cli(
+        "generate", "--suite", "libero_goal", "--tasks", "7", "--source", "replay", "--out", str(out)
+    )
+    assert result.returncode != 0 and "Traceback" not in result.stderr
+    assert "unknown demonstration source 'replay'; choose among stored_states, libero_hdf5, " in result.stderr
+    assert not out.exists()
+
+
+def test_requests_written_before_sources_had_names_read_the_same() -> None:
+    # `source` held the dataset a re-render was made from; a request that names no source and
+    # re-renders nothing writes what it wrote before (no new key).
+    old = GenerateRequest(suite="libero_goal", tasks=(7,)).to_dict()
+    assert old["source"] == "" and "rerender_of" not in old
+    assert GenerateRequest.from_dict(old) == GenerateRequest(suite="libero_goal", tasks=(7,))
+    rerendered = {**old, "source": "/data/libero_goal"}
+    back = GenerateRequest.from_dict(rerendered)
+    assert (back.source, back.rerender_of) == ("", "/data/libero_goal")
+    assert back.to_dict()["rerender_of"] == "/data/libero_goal"
+    named = GenerateRequest.from_dict({**old, "source": "held_still"})
+    assert (named.source, named.rerender_of) == ("held_still", "")
+
+
+def test_a_folder_begun_before_sources_had_names_resumes(tmp_path: Path) -> None:
+    from libero_data.runtime.files import write_json
+    from libero_data.runtime.folder import WorkFolder
+
+    now = GenerateRequest(suite="libero_goal", tasks=(7,), rerender_of="/data/libero_goal")
+    before = {**now.to_dict(), "source": "/data/libero_goal"}
+    del before["rerender_of"]
+    write_json(tmp_path / "request.json", before)
+    folder = WorkFolder(tmp_path, "dataset")
+    assert folder.claim(now.to_dict(), name="request.json", upgrade=GenerateRequest.upgrade) is not None
 
 
 def test_a_record_keeps_the_saved_form_of_its_source(tmp_path: Path) -> None:
@@ -169,7 +222,7 @@ def test_a_source_added_in_one_file_drives_generate(tmp_path: Path) -> None:
     from libero_data.pipeline.generate import generate
 
     request = GenerateRequest(
-        suite="libero_goal", tasks=(7,), episodes_per_task=1, image_size=32, imported=("arm.stilllog",)
+        suite="libero_goal", tasks=(7,), episodes_per_task=1, image_size=32, source="held_still"
     )
     out = tmp_path / "held"
     progress = generate(request, out)
@@ -178,10 +231,6 @@ def test_a_source_added_in_one_file_drives_generate(tmp_path: Path) -> None:
     assert "An arm held still in the LIBERO suite `libero_goal`." in card and "held-still" in card
     assert "| demonstrations | none: the arm held still |" in card and "| seed |" not in card
     row = json.loads((out / "meta" / "libero_episodes.jsonl").read_text().splitlines()[0])
-    assert (row["demonstrator"], row["source_file"], row["expert_code"]) == (
-        "nobody",
-        "arm.stilllog",
-        "held still",
-    )
+    assert (row["demonstrator"], row["held_steps"], row["expert_code"]) == ("nobody", STEPS, "held still")
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info["total_frames"] == STEPS

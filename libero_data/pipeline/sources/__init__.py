@@ -31,13 +31,47 @@ def demo_sources() -> tuple[DemoSource, ...]:
     return tuple(sorted((DEMO_SOURCES.get(n) for n in DEMO_SOURCES.names()), key=lambda s: s.order))
 
 
+def source_names() -> list[str]:
+    """The registered sources' names, in the order they are asked (``--source``'s choices)."""
+    return [s.name for s in demo_sources()]
+
+
+def named_source(name: str) -> DemoSource:
+    """The source registered as ``name`` (one sentence naming the known ones otherwise)."""
+    _load_modules()
+    if name not in DEMO_SOURCES:
+        raise InputError(
+            f"unknown demonstration source {name!r}; choose among {', '.join(source_names())}", field="source"
+        )
+    return DEMO_SOURCES.get(name)
+
+
 def source_of(request: GenerateRequest) -> DemoSource:
-    """The source that makes ``request``'s episodes: the first, in order, that claims it."""
+    """The source that makes ``request``'s episodes: the one it names (``request.source``), else
+    the first, in order, that claims it. A re-render (``request.rerender_of``) is made from the
+    stored states whatever source made them; that source writes the card's account of them."""
+    if request.source and not request.rerender_of:
+        source = named_source(request.source)
+        if not source.claims(request):
+            needs = f": it needs {source.needs}" if source.needs else ""
+            raise InputError(
+                f"the demonstration source {source.name!r} cannot make this request{needs}", field="source"
+            )
+        return source
     for source in demo_sources():
         if source.claims(request):
             return source
-    names = ", ".join(s.name for s in demo_sources())
+    names = ", ".join(source_names())
     raise InputError(f"no demonstration source makes this request ({names})", field="source")
 
 
-__all__ = ["CardPart", "DemoSource", "EpisodeRecord", "demo_sources", "register_source", "source_of"]
+__all__ = [
+    "CardPart",
+    "DemoSource",
+    "EpisodeRecord",
+    "demo_sources",
+    "named_source",
+    "register_source",
+    "source_names",
+    "source_of",
+]

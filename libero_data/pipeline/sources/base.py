@@ -148,14 +148,18 @@ class DemoSource:
     """One demonstration source (see the module docstring)."""
 
     #: where it is asked (lower first): a source that claims any request (the expert) is last
-    order: ClassVar[int]
+    order: ClassVar[int] = 50
+    #: what a request needs for this source to make it, in a few words (the error where a
+    #: request names the source without it)
+    needs: ClassVar[str] = ""
 
     def __init__(self, name: str) -> None:
         self.name = name
 
     def claims(self, request: GenerateRequest) -> bool:
-        """Whether this source makes the request's episodes."""
-        raise NotImplementedError
+        """Whether this source makes the request's episodes: by default, where the request names
+        it (``GenerateRequest.source``); the shipped sources also claim requests by what they hold."""
+        return request.source == self.name
 
     def search(
         self, cache: WorkerCache, task: Any, request: GenerateRequest, slot: Slot

@@ -31,6 +31,8 @@ class LiberoHDF5(DemoSource):
 
     order = 50
 
+    needs = "LIBERO HDF5 files, one per task (libero-data import makes the request)"
+
     def claims(self, request: GenerateRequest) -> bool:
         return bool(request.imported)
 

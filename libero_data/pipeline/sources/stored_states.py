@@ -15,19 +15,21 @@ if TYPE_CHECKING:
 
 
 class StoredStates(DemoSource):
-    """Another dataset's episodes: claims a request that names a source dataset, asked first
+    """Another dataset's episodes: claims a request re-rendered from a dataset, asked first
     (the source dataset's request, which it carries, names the source that made its episodes)."""
 
     order = 0
 
+    needs = "a dataset to re-render (libero-data rerender makes the request)"
+
     def claims(self, request: GenerateRequest) -> bool:
-        return bool(request.source)
+        return bool(request.rerender_of)
 
     def card(self, request: GenerateRequest, suite: str, infos: list[dict[str, Any]]) -> CardPart:
         from libero_data.pipeline.sources import source_of
 
-        made = source_of(request.replace(source="")).card(request, suite, infos)
-        summary = f"{made.summary} Re-rendered from the stored states of `{request.source}`."
+        made = source_of(request.replace(rerender_of="")).card(request, suite, infos)
+        summary = f"{made.summary} Re-rendered from the stored states of `{request.rerender_of}`."
         return dataclasses.replace(made, summary=summary)
 
 
