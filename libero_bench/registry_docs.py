@@ -176,7 +176,7 @@ def documents(root: Path = ROOT) -> list[Path]:
     return sorted({p for pattern in DOCUMENTS for p in root.glob(pattern)})
 
 
-def _wrapped(name: str, text: str) -> str:
+def _wrapped(text: str) -> str:
     """A block's body: on lines of its own where the text has several, inline otherwise."""
     return f"\n\n{text}\n\n" if "\n" in text else text
 
@@ -188,7 +188,7 @@ def rewrite(text: str) -> str:
         name = match["name"]
         if name not in BLOCKS:
             raise KeyError(f"unknown registry block {name!r}; known: {', '.join(BLOCKS)}")
-        body = _wrapped(name, BLOCKS[name].text())
+        body = _wrapped(BLOCKS[name].text())
         return f"<!-- registry:{name} -->{body}<!-- /registry:{name} -->"
 
     return BLOCK.sub(made, text)
@@ -208,7 +208,7 @@ def problems(root: Path = ROOT) -> list[str]:
                 out.append(f"{where}: no registry makes it (known: {', '.join(BLOCKS)})")
                 continue
             found.add(name)
-            if body == _wrapped(name, BLOCKS[name].text()):
+            if body == _wrapped(BLOCKS[name].text()):
                 continue
             entries = BLOCKS[name].names()
             missing = [e for e in entries if not re.search(rf"(?<![\w-]){re.escape(e)}(?![\w-])", body)]

@@ -111,8 +111,9 @@ class _CameraThread(threading.Thread):
                     counts = self.counts = np.zeros((frame.shape[2], 256), dtype=np.int64)
                 picture = av.VideoFrame.from_ndarray(frame, format="rgb24")
                 if self.key_spacing is not None:
-                    new = previous is None or not np.array_equal(frame, previous)
-                    if new and (previous is None or self.written - last_key >= self.key_spacing):
+                    if previous is None or (
+                        self.written - last_key >= self.key_spacing and not np.array_equal(frame, previous)
+                    ):
                         picture.pict_type = av.video.frame.PictureType.I
                         last_key = self.written
                     previous = frame
@@ -254,8 +255,8 @@ def embed_only_what_needs_it() -> None:
 
     LeRobot runs ``datasets``' ``embed_table_storage`` over every row of each episode before
     writing its Parquet, to put image files' bytes into the table. Our shards keep images in
-    videos, so no column needs it and each row comes back as it was, at ~0.5 s of a 280-frame
-    episode's store (``datasets`` rebuilds the features from the schema row by row). This
+    videos, so no column needs it and each row comes back as it was, after ``datasets`` has
+    rebuilt the features from the schema row by row, in Python, in every episode's store. This
     wraps the writer's ``embed_images``: unchanged where any feature needs embedding, the
     dataset itself where none does: the same rows and schema, less the ``fingerprint`` of
     ``datasets``' cache that the skipped ``map`` left in the Parquet's metadata

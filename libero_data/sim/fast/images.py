@@ -76,7 +76,7 @@ def scene_key(model: Any) -> str:
     """What a scene's renderers are built from, as 32 hex digits: every array of the compiled
     model but those a reset changes (:data:`RESET_FIELDS`), the large ones by a sample of every
     1,021st byte (a texture or mesh swapped for another of the same size differs in nearly
-    every byte), and the model's names. Two builds of one task (and perturbation) agree; ~10 ms.
+    every byte), and the model's names. Two builds of one task (and perturbation) agree.
     """
     digest = hashlib.blake2b(digest_size=16)
     for name in sorted(dir(model)):
@@ -103,10 +103,10 @@ class FastImages:
 
     Environments of one thread whose scenes are the same (:func:`scene_key`: a worker's
     environments of one task), at the same size, cameras, backend and cache, share one set of
-    renderers, built once (~4 CPU-seconds a scene) and closed with the last of them. An image
-    depends on the simulated state alone, never on what was drawn before it
-    (:class:`.near.NearDetail`), so sharing is what one environment does across its resets; a
-    GL context is current in one thread at a time, hence one set per thread.
+    renderers, built once and closed with the last of them. An image depends on the simulated
+    state alone, never on what was drawn before it (:class:`.near.NearDetail`), so sharing is
+    what one environment does across its resets; a GL context is current in one thread at a
+    time, hence one set per thread.
     """
 
     def __init__(self, size: int, camera_ids: list[int], backend: str | None, cache_dir: str | None) -> None:
