@@ -32,6 +32,42 @@ class CardTask:
         return f"{self.within / self.attempts:.0%} ({self.within}/{self.attempts})"
 
 
+@dataclass(frozen=True)
+class SuccessColumn:
+    """What a card's success column counts, in the card's words: its ``header`` in the task
+    table (and the *All tasks* line), the ``note`` under the table, and whether it counts the
+    source's successful attempts of all its attempts (``of_attempts``: a search that keeps only
+    its successes) or the kept episodes after whose last action the task's goal holds."""
+
+    header: str
+    note: str
+    of_attempts: bool
+
+
+#: The scripted expert's: its search keeps an episode only where an attempt reached the goal.
+EXPERT_SUCCESS = SuccessColumn(
+    header="expert success",
+    note=(
+        "*Expert success* is the share of the expert's attempts on that task that reached the goal\n"
+        "(failed attempts are discarded, never stored); *within the standard limit* the share that reached\n"
+        "it in no more steps than the task's standard limit (*Episode lengths* below)."
+    ),
+    of_attempts=True,
+)
+#: Any other source's, unless it says otherwise: checked on the episodes themselves, whatever
+#: the source thought of them.
+GOAL_REACHED = SuccessColumn(
+    header="goal reached",
+    note=(
+        "*Goal reached* is the share of the task's episodes after whose last action the task's goal holds, "
+        "checked on each episode's stored final state when its images were rendered (the source's own verdict "
+        "is not counted); *within the standard limit* the share that also took no more steps than the task's "
+        "standard limit (*Episode lengths* below)."
+    ),
+    of_attempts=False,
+)
+
+
 def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
@@ -81,6 +117,28 @@ EXPERT_REPRODUCIBILITY = (
     "OpenGL renderer listed there."
 )
 
+#: ``render_card``'s sections for the scripted expert's demonstrations.
+EXPERT_SECTIONS = {
+    "kind_tag": "scripted-demonstrations",
+    "how_made": EXPERT_HOW,
+    "task_note": EXPERT_TASK_NOTE,
+    "reproducibility": EXPERT_REPRODUCIBILITY,
+}
+#: ... and for demonstrations whose source says nothing of them (each section it leaves out).
+UNDESCRIBED_SECTIONS = {
+    "kind_tag": "demonstrations",
+    "how_made": (
+        "The demonstration source that made these episodes does not describe how. Each kept episode's images "
+        "are rendered frame by frame from its stored MuJoCo states."
+    ),
+    "task_note": "Task: the robot must make the goal formula of the task's BDDL file true.",
+    "reproducibility": (
+        "The stored states are the source's. `libero-data validate --resimulate N` replays episodes' stored "
+        "actions from their first stored state and reports where and by how much the replay departs from the "
+        "stored states. The images also depend on the OpenGL renderer listed under *Settings and versions*."
+    ),
+}
+
 
 def render_card(
     *,
@@ -105,6 +163,7 @@ def render_card(
     how_made: str = EXPERT_HOW,
     task_note: str = EXPERT_TASK_NOTE,
     reproducibility: str = EXPERT_REPRODUCIBILITY,
+    success: SuccessColumn = EXPERT_SUCCESS,
 ) -> str:
     """The card text; every number comes from the caller (nothing is guessed here)."""
     from libero_data.record.features import CAMERA_KEYS
@@ -150,6 +209,8 @@ def render_card(
         how_made=how_made,
         task_note=task_note,
         reproducibility=reproducibility,
+        success_header=success.header,
+        success_note=success.note,
     )
 
 

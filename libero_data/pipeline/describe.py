@@ -62,14 +62,17 @@ def describe_dataset(
     machines, renderers = provenance.machines(infos), provenance.renderers(infos)
     render = provenance.render_summary(infos, request.render_quality)
     keys_in = {p.name for p in shards}
-    lengths = dataset_lengths(request, suite, slots, status, infos)
+    part = source_of(request).card(request, suite.name, infos)  # what the demonstrations are
+    lengths = dataset_lengths(request, suite, slots, status, infos, of_attempts=part.success.of_attempts)
     tasks = []
     bddl = {}
     for position, row in enumerate(lengths):
         episodes = sum(1 for s in slots if s.position == position and s.key in keys_in)
         tasks.append(_card_task(row.task, episodes, row.attempts, row.successes, row.within))
         bddl[row.task.name] = row.task.bddl_path.read_text()
-    section, plot = lengths_card(suite, lengths, dataset_note(request, lengths), LENGTH_PLOT)
+    section, plot = lengths_card(
+        suite, lengths, dataset_note(request, lengths), LENGTH_PLOT, success_header=part.success.header
+    )
     vers = versions()
     settings = {
         "suite": suite.name,
@@ -91,7 +94,6 @@ def describe_dataset(
         **_generator_settings(suite.manifest(), len(suite.tasks)),
         **_perturbation_rows([suite.task(i) for i in request.tasks]),
     }
-    part = source_of(request).card(request, suite.name, infos)  # what the demonstrations are
     card = render_card(
         title=f"libero-data · {suite.name}",
         summary=part.summary,
@@ -110,7 +112,8 @@ def describe_dataset(
         lengths=section,
         camera_keys=request.layout.camera_keys,
         image_note=FAST_IMAGE_NOTE if request.render_quality == "fast" else FULL_IMAGE_NOTE,
-        **part.sections,
+        success=part.success,
+        **part.card_sections(),
     )
     meta = {
         "request": request.to_dict(),

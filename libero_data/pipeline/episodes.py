@@ -126,7 +126,7 @@ def episode_info(task: Any, slot: Slot, record: EpisodeRecord, gl: dict[str, str
         # OpenGL renderer that drew its images.
         "machine": record.machine or UNKNOWN_MACHINE,
         "gl": gl,
-        "success": True,
+        "success": True,  # the goal after the last action: rendering checks it
         # Where its fixtures stood (a replay places them so before restoring its states), and
         # what its source tells of it (an import: the file, its checks).
         **({"fixtures": record.fixtures} if record.fixtures is not None else {}),

@@ -54,23 +54,37 @@ def dataset_lengths(
     slots: Sequence[Slot],
     status: Mapping[str, EpisodeDone],
     infos: Sequence[Mapping[str, Any]],
+    *,
+    of_attempts: bool = True,
 ) -> list[TaskLengths]:
     """Per requested task: its standard limit and bound, its published episodes' lengths, its
-    finished slots' successes within the limit, attempts, attempts stopped and episodes given up."""
+    successes (within the limit), attempts, attempts stopped and episodes given up.
+
+    ``of_attempts``: successes and attempts are the finished slots' (a search that keeps only
+    successful attempts); otherwise the published episodes whose goal holds after their last
+    action (``episode.json``'s ``success``), of the episodes published
+    (:data:`~libero_data.cards.card.GOAL_REACHED`)."""
     rows = []
     for position, index in enumerate(request.tasks):
         task = suite.task(index)
         limit = standard_limit(suite, task.name)
         done = [status[s.key] for s in slots if s.position == position and s.key in status]
+        episodes = [i for i in infos if int(i["task_index"]) == index]
+        if of_attempts:
+            attempts = sum(d.attempts for d in done)
+            successes = [d.length for d in done if d.success]
+        else:
+            attempts = len(episodes)
+            successes = [int(i["length"]) for i in episodes if i.get("success", True)]
         rows.append(
             TaskLengths(
                 task=task,
                 limit=limit,
-                lengths=tuple(int(i["length"]) for i in infos if int(i["task_index"]) == index),
-                within=sum(1 for d in done if d.success and d.length <= limit),
+                lengths=tuple(int(i["length"]) for i in episodes),
+                within=sum(1 for n in successes if n <= limit),
                 bound=request.length_bound(task),
-                attempts=sum(d.attempts for d in done),
-                successes=sum(1 for d in done if d.success),
+                attempts=attempts,
+                successes=len(successes),
                 too_long=sum(d.too_long for d in done),
                 given_up=sum(1 for d in done if not d.success),
             )
@@ -191,8 +205,9 @@ def report_note(rows: Sequence[TaskLengths]) -> str:
     )
 
 
-def success_line(rows: Sequence[TaskLengths]) -> str:
-    """Success at all and within the standard limit over all of a card's tasks, with 95% intervals."""
+def success_line(rows: Sequence[TaskLengths], header: str = "expert success") -> str:
+    """Success at all and within the standard limit over all of a card's tasks, with 95% intervals
+    (``header``: what the card's success column is called)."""
     from libero_data.stats import wilson_interval
 
     attempts = sum(r.attempts for r in rows)
@@ -203,17 +218,17 @@ def success_line(rows: Sequence[TaskLengths]) -> str:
         low, high = wilson_interval(n, attempts)
         return f"{n}/{attempts} ({n / attempts:.1%}, 95% interval {low:.1%}–{high:.1%})"
 
-    line = f"**All tasks:** expert success {rate(sum(r.successes for r in rows))}"
+    line = f"**All tasks:** {header} {rate(sum(r.successes for r in rows))}"
     if all(r.within is not None for r in rows):
         line += f"; within the standard limit {rate(sum(r.within or 0 for r in rows))}"
     return line + "."
 
 
 def lengths_card(
-    suite: Suite, rows: Sequence[TaskLengths], note: str, image: str
+    suite: Suite, rows: Sequence[TaskLengths], note: str, image: str, success_header: str = "expert success"
 ) -> tuple[str, bytes | None]:
     """The card's *Episode lengths* section and its plot (None where no task has lengths)."""
     chosen = panels(suite, rows)
     plot = length_plot(chosen) if any(p.lengths for p in chosen) else None
-    closing = "\n\n".join(x for x in (success_line(rows), note) if x)
+    closing = "\n\n".join(x for x in (success_line(rows, success_header), note) if x)
     return length_section(chosen, image if plot is not None else None, closing), plot

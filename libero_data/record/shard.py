@@ -100,9 +100,12 @@ def render_shard(
     """
     success: list[bool] = []
     render: dict[str, Any] = {}
+    # ``success``: whether the goal holds after the last action, as rendered (whatever the
+    # source thought of the episode); set once every frame is in
+    info = {**info, "success": False}
     if env.config.render_quality != "full":
-        info = {**info, "render": render}  # filled in as the frames are rendered
-    return _start(
+        info["render"] = render  # filled in as the frames are rendered
+    finish = _start(
         Path(out_dir),
         frames=render_frames(env, states, actions, final_state, success, render),
         length=len(states),
@@ -113,6 +116,8 @@ def render_shard(
         sim_state_width=sim_state_width,
         info=info,
     )
+    info["success"] = bool(success[-1])
+    return finish
 
 
 def write_frames(

@@ -4,6 +4,7 @@ its records, its card and its episodes' details, with no pipeline file edited.""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -50,12 +51,11 @@ class HeldStill(DemoSource):
         )
 
     def card(self, request: GenerateRequest, suite: str, infos: list[dict[str, Any]]) -> CardPart:
-        return CardPart(
-            summary=f"An arm held still in the LIBERO suite `{suite}`.",
-            start_note="Each episode starts from a placement drawn by LIBERO's sampler from its number.",
+        # the default card (the docstring, the goal checked on each episode) with rows of its own
+        return dataclasses.replace(
+            super().card(request, suite, infos),
             settings={"demonstrations": "none: the arm held still", "starts": "LIBERO's sampler"},
             not_applicable=("seed", "expert code"),
-            sections={"kind_tag": "held-still"},
         )
 
 
@@ -228,9 +228,43 @@ def test_a_source_added_in_one_file_drives_generate(tmp_path: Path) -> None:
     progress = generate(request, out)
     assert (progress.done, progress.failed) == (1, 0)
     card = (out / "README.md").read_text()
-    assert "An arm held still in the LIBERO suite `libero_goal`." in card and "held-still" in card
     assert "| demonstrations | none: the arm held still |" in card and "| seed |" not in card
+    # The card speaks for the source: its name and docstring, not the expert's words, and the
+    # kept episode counted by its goal (four still steps never reach it), not as a success.
+    assert "made by the demonstration source `held_still`" in card
+    assert "A throw-away source: an arm held still for a few steps from a seeded placement;" in card
+    assert "scripted expert" not in card.lower() and "expert success" not in card
+    assert "| episodes | goal reached | within the standard limit |" in card
+    assert "| 1 | 0% (0/1) | 0% (0/1) |" in card and "**All tasks:** goal reached 0/1" in card
+    assert "- demonstrations\n" in card  # the kind tag of a source that names none
     row = json.loads((out / "meta" / "libero_episodes.jsonl").read_text().splitlines()[0])
     assert (row["demonstrator"], row["held_steps"], row["expert_code"]) == ("nobody", STEPS, "held still")
+    assert row["success"] is False
+    meta = json.loads((out / "meta" / "libero.json").read_text())
+    assert (meta["tasks"][0]["attempts"], meta["tasks"][0]["successes"]) == (1, 0)
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info["total_frames"] == STEPS
+
+
+def test_a_source_that_describes_nothing_gets_a_neutral_card() -> None:
+    class Quiet(DemoSource):
+        pass
+
+    class Told(DemoSource):
+        """Replays fixed actions.
+
+        More detail the card leaves out."""
+
+    class Said(Told):
+        description = "Reads actions from a CSV file"
+
+    infos = [{"init_index": 3}, {"init_index": -1}]
+    request = GenerateRequest(suite="libero_goal", tasks=(7,))
+    part = Quiet("quiet").card(request, "libero_goal", infos)
+    sections = part.card_sections()
+    assert sections["kind_tag"] == "demonstrations" and part.success.header == "goal reached"
+    assert "`quiet`" in sections["how_made"] and "it does not say how." in sections["how_made"]
+    assert not any("expert" in text.lower() for text in (*sections.values(), part.summary, part.start_note))
+    assert "1 of them began from LIBERO's stored init states (3)" in part.start_note
+    assert Told("told").describe() == "Replays fixed actions."
+    assert Said("said").describe() == "Reads actions from a CSV file."

@@ -46,6 +46,15 @@ def named_source(name: str) -> DemoSource:
     return DEMO_SOURCES.get(name)
 
 
+def source_choices() -> str:
+    """The registered sources as ``--source`` lists them: each with what a request for it needs
+    (the sources that need nothing are those ``generate`` alone can run)."""
+    return "; ".join(
+        f"{s.name}, only with {s.needs}" if s.needs else s.name
+        for s in sorted(demo_sources(), key=lambda s: bool(s.needs))
+    )
+
+
 def source_of(request: GenerateRequest) -> DemoSource:
     """The source that makes ``request``'s episodes: the one it names (``request.source``), else
     the first, in order, that claims it. A re-render (``request.rerender_of``) is made from the
@@ -72,6 +81,7 @@ __all__ = [
     "demo_sources",
     "named_source",
     "register_source",
+    "source_choices",
     "source_names",
     "source_of",
 ]

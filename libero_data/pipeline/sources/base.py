@@ -10,7 +10,11 @@ subclass, registered with :func:`register_source`. ``generate`` asks every sourc
   demonstration in the driver) returns None, and a missing record is then an error;
 - ``set_scene`` puts the environment where an episode's states are drawn in (the fixtures'
   placement), before its frames are rendered from them;
-- ``card`` says what the dataset's card says of the demonstrations (:class:`CardPart`).
+- ``card`` says what the dataset's card says of the demonstrations (:class:`CardPart`): by
+  default the source's ``description`` (or its class docstring) and, in the task table, the
+  share of episodes whose goal holds after their last action, checked while they are rendered;
+  a source's own verdict on its episodes is never shown as a success rate unless it says what
+  it counts (the expert's ``expert success``).
 
 To add a source, copy the module of the source most like it (``scripted.py`` for one that makes
 its episodes in the workers, ``libero_hdf5.py`` for one that reads them before) and a test
@@ -19,12 +23,14 @@ its episodes in the workers, ``libero_hdf5.py`` for one that reads them before) 
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from libero_data.cards.card import GOAL_REACHED, UNDESCRIBED_SECTIONS, SuccessColumn
 from libero_data.registry import Registry
 from libero_data.runtime.files import load_record, save_record
 
@@ -129,14 +135,20 @@ class EpisodeRecord:
 class CardPart:
     """What a source puts in a dataset's card: the summary, where the episodes started, the
     settings rows it replaces or adds (after the common ones) and those that say nothing of its
-    episodes, and ``render_card``'s sections (``kind_tag``, ``how_made``, ``task_note``,
-    ``reproducibility``) where they are not the expert's."""
+    episodes, ``render_card``'s sections (``kind_tag``, ``how_made``, ``task_note``,
+    ``reproducibility``; one left out says the source does not describe it) and what the task
+    table's success column counts."""
 
     summary: str
     start_note: str
     settings: dict[str, str] = field(default_factory=dict)
     not_applicable: tuple[str, ...] = ()
     sections: dict[str, str] = field(default_factory=dict)
+    success: SuccessColumn = GOAL_REACHED
+
+    def card_sections(self) -> dict[str, str]:
+        """``render_card``'s sections, those the source leaves out saying so."""
+        return {**UNDESCRIBED_SECTIONS, **self.sections}
 
     def apply(self, common: dict[str, str]) -> dict[str, str]:
         """The card's settings rows: ``common`` with this source's rows."""
@@ -152,6 +164,8 @@ class DemoSource:
     #: what a request needs for this source to make it, in a few words (the error where a
     #: request names the source without it)
     needs: ClassVar[str] = ""
+    #: how its demonstrations are made, for the card (default: the class docstring's first paragraph)
+    description: ClassVar[str] = ""
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -173,8 +187,41 @@ class DemoSource:
 
     def card(self, request: GenerateRequest, suite: str, infos: list[dict[str, Any]]) -> CardPart:
         """What the card of ``request``'s dataset (of ``suite``) says of its episodes, from each
-        episode's ``episode.json`` (``infos``)."""
-        raise NotImplementedError
+        episode's ``episode.json`` (``infos``). By default: the source's name and ``description``,
+        where the episodes began as recorded, and the goal checked on every episode."""
+        began = sorted({int(i.get("init_index", -1)) for i in infos} - {-1})
+        where = (
+            f"{len(began)} of them began from LIBERO's stored init states ({', '.join(map(str, began))}), the "
+            "states the paper's evaluation starts from: a policy evaluated on those has seen its starts in training"
+            if began
+            else "none of them began from LIBERO's stored init states"
+        )
+        return CardPart(
+            summary=(
+                f"Demonstrations of the LIBERO suite `{suite}` made by the demonstration source `{self.name}`, "
+                "written with libero-data in LeRobot v3 format."
+            ),
+            start_note=(
+                "Each episode's start is the source's; `meta/libero_episodes.jsonl` lists its init state "
+                f"(`init_index`, -1 where it is none of LIBERO's stored init states) and seeds: {where}."
+            ),
+            sections={
+                "how_made": (
+                    f"The demonstration source `{self.name}` (`{type(self).__module__}.{type(self).__qualname__}`) "
+                    f"made these episodes: {self.describe()} Each kept episode's images are rendered frame by "
+                    "frame from its stored MuJoCo states."
+                )
+            },
+        )
+
+    def describe(self) -> str:
+        """How the source's demonstrations are made, in a sentence or two (``description``, or
+        the first paragraph of the class docstring)."""
+        text = self.description or inspect.cleandoc(type(self).__doc__ or "").split("\n\n")[0]
+        text = " ".join(text.split())
+        if not text:
+            return "it does not say how."
+        return text if text.endswith(".") else f"{text}."
 
 
 DEMO_SOURCES: Registry[DemoSource] = Registry("demonstration source")

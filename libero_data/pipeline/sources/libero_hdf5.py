@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from libero_data.cards.card import SuccessColumn
 from libero_data.errors import DatasetError
 from libero_data.pipeline.sources.base import CardPart, DemoSource, EpisodeRecord, register_source
 
@@ -56,6 +57,7 @@ class LiberoHDF5(DemoSource):
             },
             not_applicable=NOT_APPLICABLE,
             sections=HUMAN_SECTIONS,
+            success=KEPT_OF_FILE,
         )
 
 
@@ -203,9 +205,18 @@ HUMAN_HOW = (
     "These are LIBERO's own human demonstrations (teleoperated with a 3D mouse), read from the HDF5 files "
     "LIBERO distributes and checked under this simulator: each demonstration's fixtures are placed where its "
     "stored model XML had them, each stored state is stepped with its action and compared with the next one "
-    "(settings: replay under this simulator), and the images are rendered again from the stored states. "
-    "In the task table, *expert success* counts the file's demonstrations kept: a demonstration whose states "
-    "this simulator does not reproduce within the import's tolerance is left out."
+    "(settings: replay under this simulator), and the images are rendered again from the stored states."
+)
+#: The task table's success column of an import: the file's demonstrations kept.
+KEPT_OF_FILE = SuccessColumn(
+    header="kept",
+    note=(
+        "*Kept* is the share of the file's demonstrations of that task that were kept: a demonstration whose "
+        "states this simulator does not reproduce within the import's tolerance is left out; *within the "
+        "standard limit* the share kept that took no more steps than the task's standard limit (*Episode "
+        "lengths* below)."
+    ),
+    of_attempts=True,
 )
 HUMAN_TASK_NOTE = (
     "Task: the robot must make the goal formula of the task's BDDL file true. Each demonstration is stored "

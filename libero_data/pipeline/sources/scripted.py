@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from libero_data.cards.card import EXPERT_SECTIONS, EXPERT_SUCCESS
 from libero_data.pipeline.episodes import env_settings, expert_env
 from libero_data.pipeline.request import STORED_INITS
 from libero_data.pipeline.sources.base import CardPart, DemoSource, EpisodeRecord, register_source
@@ -38,6 +39,8 @@ class ScriptedExpert(DemoSource):
         return CardPart(
             summary=f"Scripted demonstrations of the LIBERO suite `{suite}`, made with libero-data in LeRobot v3 format.",
             start_note=start_note(request.starts, request.episodes_per_task, request.arm_noise),
+            sections=EXPERT_SECTIONS,
+            success=EXPERT_SUCCESS,
         )
 
 
