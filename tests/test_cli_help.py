@@ -33,3 +33,24 @@ def test_help_stays_whole_at_80_columns(name: str) -> None:
             assert "…" not in line, f"{name} {command} --help cuts a word: {line!r}"
     generate = runner.invoke(dict(_apps())["libero-data"], ["generate", "--help"], env={"COLUMNS": "80"})
     assert "observation.images.wrist_image" in generate.output
+
+
+def test_help_names_what_each_kind_of_client_gets() -> None:
+    """``generate --help`` names every registered source and what a request for it needs;
+    ``serve --help`` says what openpi's client gets from a policy that acts step by step."""
+    from libero_data.pipeline.sources import demo_sources
+
+    apps = dict(_apps())
+    runner = CliRunner()
+
+    def words(app: str, command: str) -> str:
+        out = runner.invoke(apps[app], [command, "--help"], env={"COLUMNS": "200"}).output
+        return " ".join(out.split())
+
+    generate = words("libero-data", "generate")
+    for source in demo_sources():
+        named = f"{source.name}, only with {' '.join(source.needs.split())}" if source.needs else source.name
+        assert named in generate, f"generate --help does not name the source {named!r}"
+    assert "Generate scripted demonstrations" not in generate
+    serve = words("libero-bench", "serve")
+    assert "predicts one action per step" in serve and "--replan-steps 1" in serve

@@ -12,7 +12,7 @@ from libero_data.cli.common import user_errors
 
 app = typer.Typer(
     name="libero-bench",
-    help="Lifelong robot learning on LIBERO datasets made by libero-data.",
+    help="Lifelong learning on libero-data datasets, and evaluation in simulation of any policy (runs, LeRobot policies, openpi-protocol servers).",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -22,7 +22,7 @@ app = typer.Typer(
 
 @app.callback()
 def _root() -> None:
-    """Lifelong robot learning on LIBERO datasets made by libero-data."""
+    """Lifelong learning on libero-data datasets, and evaluation in simulation of any policy (runs, LeRobot policies, openpi-protocol servers)."""
 
 
 @app.command("orders")

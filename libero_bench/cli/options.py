@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from libero_data.tasks.horizons import SUITE, limit_text
+from libero_data.tasks.horizons import OPENPI_LIMITS, SUITE, limit_text
 
 Device = Annotated[
     str | None,
@@ -52,8 +52,9 @@ SentImageSize = Annotated[
     int | None,
     typer.Option(
         "--image-size",
-        help="With --server: camera images sent, resized with padding to this square size (default: the "
-        "size the server's metadata names, else 224 as openpi's LIBERO client).",
+        help="With --server, --protocol standard or --benchmark: camera images sent (to a server or a local "
+        "policy), resized with padding to this square size (default: the size the server's metadata names, "
+        "else 224 as openpi's LIBERO client).",
         min=8,
     ),
 ]
@@ -93,8 +94,29 @@ MaxSteps = Annotated[
     str,
     typer.Option(
         "--max-steps",
-        help=f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}.",
+        help=f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}; a LIBERO-PRO, "
+        "LIBERO-Plus or variant task takes its base suite's.",
         show_default=True,
+    ),
+]
+#: ``eval``'s, whose standard protocol and benchmarks take openpi's limits.
+EvalMaxSteps = Annotated[
+    str,
+    typer.Option(
+        "--max-steps",
+        help=f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}; under --protocol "
+        "standard and --benchmark, openpi's ("
+        + ", ".join(f"{suite} {n}" for suite, n in OPENPI_LIMITS.items())
+        + "); a LIBERO-PRO, LIBERO-Plus or variant task takes its base suite's.",
+        show_default=True,
+    ),
+]
+ServeDevice = Annotated[
+    str | None,
+    typer.Option(
+        "--device",
+        help="Where the served policy runs, one batched forward pass for every request that arrives together: "
+        "cpu, cuda or mps (default: cuda where available, then mps, else cpu).",
     ),
 ]
 
@@ -110,7 +132,13 @@ ProtocolName = Annotated[
     ),
 ]
 Trials = Annotated[
-    int, typer.Option("--trials", help="--protocol standard: episodes per task (openpi: 50).", min=1, max=50)
+    int,
+    typer.Option(
+        "--trials",
+        help="--protocol standard and --benchmark libero-pro: episodes per task (openpi: 50).",
+        min=1,
+        max=50,
+    ),
 ]
 Benchmark = Annotated[
     str | None,

@@ -13,10 +13,10 @@ from libero_bench.cli.options import (
     Benchmark,
     Device,
     EnvWorkers,
+    EvalMaxSteps,
     EvalTasks,
     HeldoutStarts,
     KeepRollouts,
-    MaxSteps,
     PerCategory,
     PlusClassification,
     PlusPrompt,
@@ -24,6 +24,7 @@ from libero_bench.cli.options import (
     ReplanSteps,
     SampleSeed,
     SentImageSize,
+    ServeDevice,
     Server,
     StoredStarts,
     Trials,
@@ -34,7 +35,7 @@ from libero_data.cli.common import (
     PlusAssetsOption,
     PlusFilesOption,
     RayAddress,
-    RenderQuality,
+    ViewRenderQuality,
     quiet_environment,
     rollout_progress,
     say,
@@ -62,7 +63,7 @@ def eval_cmd(
     protocol: ProtocolName = "libero-bench",
     trials: Trials = 50,
     benchmark: Benchmark = None,
-    max_steps: MaxSteps = "suite",
+    max_steps: EvalMaxSteps = "suite",
     server: Server = None,
     device: Device = None,
     workers: EnvWorkers = 1,
@@ -71,7 +72,7 @@ def eval_cmd(
     ray_address: RayAddress = None,
     image_size: SentImageSize = None,
     replan_steps: ReplanSteps = 5,
-    render_quality: RenderQuality = "full",
+    render_quality: ViewRenderQuality = "full",
     keep_work: KeepRollouts = False,
     plus: PlusFilesOption = None,
     plus_assets: PlusAssetsOption = None,
@@ -86,9 +87,11 @@ def eval_cmd(
     The policy runs once, on --device, batched over --batch-size environments that step in --workers
     processes (or Ray actors with --executor ray). A policy folder's inputs are served from its declared
     features (either camera naming, any image size, the 8-D state) and its own pre- and post-processors
-    run as in lerobot-eval. A server gets openpi's LIBERO observation (observation/image,
-    observation/wrist_image, observation/state, prompt) and its action chunks are executed
-    --replan-steps at a time. --protocol standard reproduces openpi's LIBERO client exactly (docs/evaluation.md:
+    run as in lerobot-eval. A server gets, under the default protocol, openpi's LIBERO observation
+    (observation/image, observation/wrist_image, observation/state, prompt) with the arm's joints, the
+    gripper and a rollout key, over a connection per episode; under --protocol standard and
+    --benchmark, openpi's request exactly as its LIBERO client sends it (with the entries the server's
+    metadata asks for). Its action chunks are executed --replan-steps at a time. --protocol standard reproduces openpi's LIBERO client exactly (docs/evaluation.md:
     Reproducing a published LIBERO score); --benchmark libero-pro makes LIBERO-PRO's table, --benchmark
     libero-plus (with --plus) LIBERO-Plus's.
     """
@@ -219,7 +222,7 @@ def serve_cmd(
     host: Annotated[
         str, typer.Option("--host", help="Address to listen on (0.0.0.0: every interface of this machine).")
     ] = "127.0.0.1",
-    device: Device = None,
+    device: ServeDevice = None,
     view_task: Annotated[
         int | None,
         typer.Option(
@@ -243,8 +246,10 @@ def serve_cmd(
 
     Requests that arrive together, from any number of connections, go through one batched forward pass.
     openpi's client (and eval --server --protocol standard) gets the policy's action chunk per request;
-    libero-bench's default protocol opens a connection per episode and gets the one action the policy takes
-    now. A request that
+    a policy that predicts one action per step (every libero-bench run) answers it only where the
+    client asks at every step (eval --replan-steps 1), and a run also needs the arm's joints in each
+    request (the metadata's inputs list what it reads). libero-bench's default protocol opens a
+    connection per episode and gets the one action the policy takes now. A request that
     cannot be served gets one sentence back; the log on stderr names each connection, refusal and failure.
     The policy makes one forward pass before the server listens. Stop with Ctrl-C.
     """

@@ -114,7 +114,7 @@ def replay_cmd(
     run: Annotated[
         Path, typer.Argument(help="A run folder, or an evaluation folder (libero-bench eval --out).")
     ],
-    task: Annotated[str, typer.Option("--task", help="Task name or position in the run.")],
+    task: Annotated[str, typer.Option("--task", help="Task name or position in the run or evaluation.")],
     rollout: Annotated[
         int | None,
         typer.Option(

@@ -21,7 +21,7 @@ from libero_bench.cli.options import (
 from libero_data.cli.common import (
     ExecutorKind,
     RayAddress,
-    RenderQuality,
+    ViewRenderQuality,
     quiet_environment,
     rollout_progress,
     say,
@@ -74,7 +74,7 @@ def robustness_cmd(
     ray_address: RayAddress = None,
     image_size: SentImageSize = None,
     replan_steps: ReplanSteps = 5,
-    render_quality: RenderQuality = "full",
+    render_quality: ViewRenderQuality = "full",
     keep_work: KeepRollouts = False,
 ) -> None:
     """Evaluate a policy on its tasks perturbed along kinds x levels: a table and a heatmap of success with

@@ -30,7 +30,7 @@ EvalRenderQuality = Annotated[
     typer.Option(
         "--render-quality",
         help="Images of the evaluation rollouts: 'full' (LIBERO's renderer) or 'fast' (simplified meshes); "
-        "default: the preset's (full). Same as --set eval_render_quality=...",
+        "default: the preset's (paper, smoke: full; quick: fast). Same as --set eval_render_quality=...",
     ),
 ]
 
@@ -84,7 +84,9 @@ StopAfter = Annotated[
 
 @user_errors
 def run_cmd(
-    data: Annotated[Path, typer.Option("--data", help="A dataset made by `libero-data generate`.")],
+    data: Annotated[
+        Path, typer.Option("--data", help="A libero-data dataset (made by generate, import or rerender).")
+    ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Run folder (created; an existing run resumes).")],
     algo: Annotated[str, typer.Option("--algo", help="seql, er, ewc, packnet or mtl.")] = "er",
     policy: Annotated[str, typer.Option("--policy", help="resnet_rnn, resnet_t or vit_t.")] = "resnet_t",
@@ -107,7 +109,8 @@ def run_cmd(
     ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Run seed; default: the preset's.")] = None,
     device: Annotated[
-        str, typer.Option("--device", help="cpu or cuda: training, and the policy in evaluation rounds.")
+        str,
+        typer.Option("--device", help="cpu, cuda or cuda:N: training, and the policy in evaluation rounds."),
     ] = "cpu",
     workers: EnvWorkers = 1,
     loader_workers: Annotated[

@@ -17,14 +17,18 @@ def card_cmd(
         Path, typer.Option("--expert-report", help="expert_report.csv from `libero-data expert-report`.")
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Markdown file to write.")],
-    episodes_per_task: Annotated[int, typer.Option("--episodes-per-task", "-n", min=1)] = 50,
-    image_size: Annotated[int, typer.Option("--image-size", min=32, max=512)] = 128,
-    seed: Annotated[int, typer.Option("--seed")] = 0,
+    episodes_per_task: Annotated[
+        int, typer.Option("--episodes-per-task", "-n", min=1, help="Episodes per task the card states.")
+    ] = 50,
+    image_size: Annotated[
+        int, typer.Option("--image-size", min=32, max=512, help="Image size the card states, in pixels.")
+    ] = 128,
+    seed: Annotated[int, typer.Option("--seed", help="Generation seed the card states.")] = 0,
 ) -> None:
     """Render the dataset card that `generate` would write for a suite, from an expert report.
 
     Where the report's journal (expert_report.jsonl) is beside its table, the card also shows the
-    episodes' lengths against each task's standard step limit, with a plot OUT_lengths.png beside it.
+    episodes' lengths against each task's standard step limit, with a plot beside it (card.md: card_lengths.png).
     """
     from libero_data.cards.expert_files import read_measured, report_settings
     from libero_data.pipeline.describe import suite_card

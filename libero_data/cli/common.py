@@ -235,6 +235,15 @@ RenderQuality = Annotated[
         "milliseconds per frame on a CPU; the card states the measured image difference).",
     ),
 ]
+#: ... for a command that writes no card (it shows or evaluates).
+ViewRenderQuality = Annotated[
+    str,
+    typer.Option(
+        "--render-quality",
+        help="'full' (LIBERO's renderer, pixel for pixel) or 'fast' (simplified visual meshes, ~3x fewer "
+        "milliseconds per frame on a CPU; the images differ slightly from LIBERO's).",
+    ),
+]
 
 
 PlusFilesOption = Annotated[

@@ -77,7 +77,7 @@ def replay_cmd(
         ),
     ] = None,
 ) -> None:
-    """Save a stored episode as a Rerun recording (both cameras, state, action, language)."""
+    """Save a stored episode as a Rerun recording (the dataset's cameras, state, action, language)."""
     from libero_data.pipeline.replay import episode_to_rrd
 
     target = rrd or Path(f"episode_{episode}.rrd")

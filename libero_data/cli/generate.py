@@ -29,7 +29,7 @@ from libero_data.cli.common import (
     user_errors,
 )
 from libero_data.perturb.levels import KINDS, SCENE_KINDS  # the registry's kinds, for --help
-from libero_data.pipeline.sources import source_names  # the registry's sources, for --help
+from libero_data.pipeline.sources import source_choices  # the registry's sources, for --help
 
 Tasks = Annotated[
     list[str] | None,
@@ -130,8 +130,8 @@ Source = Annotated[
     str | None,
     typer.Option(
         "--source",
-        help="The demonstration source that makes the episodes, by name: "
-        f"{', '.join(source_names())} (default: the scripted expert; `import` and `rerender` name theirs).",
+        help="The demonstration source that makes the episodes, by name (default: scripted, the expert): "
+        f"{source_choices()}.",
     ),
 ]
 ArmNoise = Annotated[
@@ -223,9 +223,11 @@ def generate_cmd(
     plus: PlusFilesOption = None,
     plus_assets: PlusAssetsOption = None,
 ) -> None:
-    """Generate scripted demonstrations as a LeRobot v3 dataset, with MCAP logs and a dataset card.
+    """Make demonstrations of a suite's tasks as a LeRobot v3 dataset, with MCAP logs and a dataset card.
 
-    Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
+    The scripted expert makes them unless --source names another demonstration source. With
+    --procedural or --variants-of, new tasks (procedural ones, robustness variants) are made and
+    written into --out first, with their dataset. Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
     """
     from libero_data.pipeline.request import parse_max_length, resolve_request
     from libero_data.record.features import PROFILE_IMAGE_SIZE

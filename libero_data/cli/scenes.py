@@ -33,8 +33,17 @@ def scenes_cmd() -> None:
 @user_errors
 def contact_sheet_cmd(
     suite: Annotated[str, typer.Argument(help="Suite name or suite folder (e.g. a procedural suite).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="PNG file to write.")] = Path("contact_sheet.png"),
-    count: Annotated[int, typer.Option("--count", "-n", help="How many tasks (the first N).", min=1)] = 12,
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Image file to write (its suffix says png or jpg); with several kinds, a folder.",
+        ),
+    ] = Path("contact_sheet.png"),
+    count: Annotated[
+        int, typer.Option("--count", "-n", help="Without --kind: how many tasks (the first N).", min=1)
+    ] = 12,
     size: Annotated[int, typer.Option("--size", help="Frame size in pixels.", min=32, max=512)] = 160,
     seed: Annotated[
         int, typer.Option("--seed", help="Seed of the expert episodes (or of the variants).")
@@ -55,11 +64,12 @@ def contact_sheet_cmd(
         str,
         typer.Option(
             "--format",
-            help="With several kinds, or --out a folder: the images' format, png or jpg (else --out's suffix decides).",
+            help="With --kind, where --out is a folder (several kinds): the images' format, png or jpg "
+            "(otherwise --out's suffix decides).",
         ),
     ] = "png",
 ) -> None:
-    """A PNG grid: first and last agentview frame of one expert episode per task, with its instruction.
+    """An image grid: first and last agentview frame of one expert episode per task, with its instruction.
 
     With --kind: the source task and each level 1-5 of a variant kind side by side, agentview over
     eye-in-hand, with what was drawn for each level.

@@ -10,7 +10,7 @@ import typer
 from libero_data.cli.common import (
     PlusAssetsOption,
     PlusFilesOption,
-    RenderQuality,
+    ViewRenderQuality,
     console,
     say,
     use_plus,
@@ -28,14 +28,20 @@ def tasks_cmd(
             help="Suite name (libero_spatial, libero_object, libero_goal, libero_10, libero_90, libero_100; a LIBERO-PRO suite: libero_goal_swap, libero_object_lan, ..., --suite pro lists them; with --plus a LIBERO-Plus suite, plus/libero_object, ...) or a suite folder; default: the five suites (with --plus: LIBERO-Plus's four, counted by category).",
         ),
     ] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON lines instead of a table.")] = False,
+    as_json: Annotated[
+        bool,
+        typer.Option(
+            "--json",
+            help="Print JSON lines instead of a table (the LIBERO-Plus counts by category stay a table).",
+        ),
+    ] = False,
     plus: PlusFilesOption = None,
     plus_assets: PlusAssetsOption = None,
     category: Annotated[
         str | None,
         typer.Option(
             "--category",
-            help="A LIBERO-Plus suite: only the tasks of this category (camera, robot, language, light, "
+            help="With a LIBERO-Plus suite (--suite plus/...): only the tasks of this category (camera, robot, language, light, "
             "background, noise, layout).",
         ),
     ] = None,
@@ -163,7 +169,7 @@ def show_cmd(
         typer.Option("--renderer", help="egl or osmesa; default: $MUJOCO_GL, else the first available."),
     ] = None,
     bddl: Annotated[bool, typer.Option("--bddl/--no-bddl", help="Print the task's BDDL.")] = True,
-    render_quality: RenderQuality = "full",
+    render_quality: ViewRenderQuality = "full",
     plus: PlusFilesOption = None,
     plus_assets: PlusAssetsOption = None,
 ) -> None:
