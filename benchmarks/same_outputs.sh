@@ -10,7 +10,8 @@
 # level 1, two rollouts per cell). Each commit runs from its own git worktree with this
 # checkout's virtual environment. Files that record how long something took, or when, are
 # listed as such and compared without those fields (timings.jsonl, run.log, *.rrd and MCAP logs
-# hold wall-clock times).
+# hold wall-clock times; results' phases are seconds); a card's snapshot line is a hash of its
+# content, output path included, and is left out of the comparison.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 before=${1:?the commit before}
@@ -51,14 +52,16 @@ for commit in "$before" "$after"; do
   touch "$work/$commit/done"
 done
 .venv/bin/python - "$work/$before" "$work/$after" <<'EOF'
-import json, sys
+import json, re, sys
 from pathlib import Path
 
 a, b = Path(sys.argv[1]), Path(sys.argv[2])
 TIMED = {"timings.jsonl", "run.log", "done"}
 TIMED_SUFFIXES = (".rrd", ".mcap")
 # keys whose values are wall-clock times, dates or the machine's paths
-VOLATILE = {"seconds", "created", "date", "wall_s", "started", "finished", "elapsed", "duration_s"}
+VOLATILE = {"seconds", "created", "date", "wall_s", "started", "finished", "elapsed", "duration_s", "phases"}
+# a card's last line names its snapshot by a hash of its content, which holds the output folder's path
+SNAPSHOT = re.compile(r"<!-- libero-data snapshot [0-9a-f-]+ -->")
 
 
 def strip(value):
@@ -85,7 +88,10 @@ def same(x: Path, y: Path) -> bool:
 
         return canonical_header(x.read_bytes()) == canonical_header(y.read_bytes())
     if x.suffix == ".md":
-        return x.read_text().replace(str(a), "<out>") == y.read_text().replace(str(b), "<out>")
+        def text(path, root):
+            return SNAPSHOT.sub("<snapshot>", path.read_text().replace(str(root), "<out>"))
+
+        return text(x, a) == text(y, b)
     return False
 
 
