@@ -233,6 +233,7 @@ class EpisodeHost:
         paths written (relative to the root)."""
         from libero_bench.rollouts.rerun_log import write_rollout_rrd
         from libero_data.record.features import FeatureLayout
+        from libero_data.record.mcap_log import episode_jpegs
         from libero_data.record.shard import write_frames
         from libero_data.runtime.memory import release_free_memory
 
@@ -242,6 +243,7 @@ class EpisodeHost:
         tags = {**job.tags, "success": reached, "steps": len(frames), "task_name": job.task_name}
         if episode.held:  # the images are the policy's view: drawn when it looked, held between
             tags["held_images"] = episode.held
+        jpegs = episode_jpegs()  # one JPEG per image for the MCAP log and the Rerun recording
         write_frames(
             self.ctx.root / job.shard_dir,
             frames=frames,
@@ -253,6 +255,7 @@ class EpisodeHost:
             info={**tags, "language": job.language, "key": job.key},
             rgb_encoder=rollout_encoder(),
             key_spacing=ROLLOUT_KEY_SPACING,
+            jpegs=jpegs,
         )
         write_rollout_rrd(
             self.ctx.root / job.rrd_path,
@@ -261,6 +264,7 @@ class EpisodeHost:
             language=job.language,
             tags={**tags, "key": job.key},
             recording_id=job.key,
+            jpegs=jpegs,
         )
         release_free_memory()  # between episodes, as the job runner's workers do
         self.store_seconds += time.perf_counter() - storing

@@ -11,13 +11,13 @@ Read them back with ``rerun.recording.load_recording`` (``rerun.dataframe`` befo
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from libero_data.record.mcap_log import once_per_image
+from libero_data.record.mcap_log import episode_jpegs, once_per_image
 from libero_data.record.rrd import rrd_file
 
 FPS = 20
@@ -35,8 +35,11 @@ def write_rollout_rrd(
     language: str,
     tags: Mapping[str, Any],
     recording_id: str,
+    jpegs: Callable[[np.ndarray], bytes] | None = None,
 ) -> Path:
-    """Write one rollout (env observations with an ``action`` each) to ``path`` atomically."""
+    """Write one rollout (env observations with an ``action`` each) to ``path`` atomically; its
+    images as JPEG (quality 90), from ``jpegs`` where another log of the rollout made them
+    (:func:`~libero_data.record.mcap_log.episode_jpegs`)."""
     import rerun as rr
 
     if len(frames) != len(success):
@@ -45,9 +48,8 @@ def write_rollout_rrd(
     with rrd_file(out, "libero-bench", recording_id) as rec:
         rec.log("language", rr.TextDocument(language), static=True)
         rec.log("tags", rr.TextDocument(json.dumps(dict(tags), sort_keys=True, default=str)), static=True)
-        jpeg = once_per_image(
-            lambda image: rr.Image(np.asarray(image, dtype=np.uint8)).compress(jpeg_quality=90)
-        )
+        encoded = jpegs or episode_jpegs()
+        jpeg = once_per_image(lambda image: rr.EncodedImage(contents=encoded(image), media_type="image/jpeg"))
         for step, obs in enumerate(frames):
             rec.set_time("step", sequence=step)
             rec.set_time("time", duration=step / FPS)

@@ -90,7 +90,8 @@ class _CameraThread(threading.Thread):
         container: Any = None
         stream: Any = None
         counts = np.zeros((0, 256), dtype=np.int64)  # replaced at the first frame
-        previous: np.ndarray | None = None
+        previous: np.ndarray | None = None  # the frame before (only where keyframes follow new images)
+        frame_counts: np.ndarray = counts
         last_key = 0
         try:
             while True:
@@ -110,19 +111,22 @@ class _CameraThread(threading.Thread):
                     stream.time_base = Fraction(1, self.fps)
                     counts = self.counts = np.zeros((frame.shape[2], 256), dtype=np.int64)
                 picture = av.VideoFrame.from_ndarray(frame, format="rgb24")
+                # frames that repeat (a rollout's held images): the same image as the frame before
+                repeat = previous is not None and (frame is previous or np.array_equal(frame, previous))
                 if self.key_spacing is not None:
-                    if previous is None or (
-                        self.written - last_key >= self.key_spacing and not np.array_equal(frame, previous)
-                    ):
+                    if previous is None or (self.written - last_key >= self.key_spacing and not repeat):
                         picture.pict_type = av.video.frame.PictureType.I
                         last_key = self.written
                     previous = frame
                 picture.pts = self.written
                 picture.time_base = Fraction(1, self.fps)
                 container.mux(stream.encode(picture))
-                flat = frame.reshape(-1, frame.shape[2])
-                for c in range(flat.shape[1]):
-                    counts[c] += np.bincount(flat[:, c], minlength=256)
+                if not repeat:  # a repeated image adds the counts of the one it repeats
+                    flat = frame.reshape(-1, frame.shape[2])
+                    frame_counts = np.stack(
+                        [np.bincount(flat[:, c], minlength=256) for c in range(flat.shape[1])]
+                    )
+                counts += frame_counts
                 self.written += 1
             if stream is not None and not self.cancelled.is_set():
                 container.mux(stream.encode())

@@ -114,6 +114,12 @@ def once_per_image[T](encode: Callable[[np.ndarray], T]) -> Callable[[np.ndarray
     return encoded
 
 
+def episode_jpegs() -> Callable[[np.ndarray], bytes]:
+    """One JPEG (quality 90) per image array of an episode, shared by every log that stores the
+    episode's images (its MCAP log and, for a rollout, its Rerun recording)."""
+    return once_per_image(_jpeg)
+
+
 def write_episode_mcap(
     path: str | Path,
     *,
@@ -123,9 +129,11 @@ def write_episode_mcap(
     success: list[bool],
     fps: int = 20,
     metadata: dict[str, str] | None = None,
+    jpegs: Callable[[np.ndarray], bytes] | None = None,
 ) -> Path:
     """Write one episode; ``frames[t]`` holds ``agentview``/``eye_in_hand`` images, ``state``,
-    ``joint_pos``, ``gripper_state``, ``eef_pos``, ``eef_quat`` and ``action``.
+    ``joint_pos``, ``gripper_state``, ``eef_pos``, ``eef_quat`` and ``action``. ``jpegs``: the
+    episode's :func:`episode_jpegs`, where another log stores the same images.
 
     The file appears atomically (written to a temporary name, then renamed).
     """
@@ -152,7 +160,8 @@ def write_episode_mcap(
             )
 
         emit("/language", 0, {"timestamp": _stamp(0), "task": task, "instruction": instruction})
-        jpeg = once_per_image(lambda image: base64.b64encode(_jpeg(image)).decode())
+        encoded = jpegs or episode_jpegs()
+        jpeg = once_per_image(lambda image: base64.b64encode(encoded(image)).decode())
         for t, frame in enumerate(frames):
             ns = t * step_ns
             for camera in ("agentview", "eye_in_hand"):

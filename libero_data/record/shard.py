@@ -133,6 +133,7 @@ def write_frames(
     length: int | None = None,
     rgb_encoder: Any = None,
     key_spacing: int | None = None,
+    jpegs: Callable[[np.ndarray], bytes] | None = None,
 ) -> Path:
     """Write observed frames (env observations with images and an ``action``) as a one-episode shard.
 
@@ -142,7 +143,8 @@ def write_frames(
     LeRobot dataset, ``episode.mcap`` and ``episode.json`` (``info`` plus the length).
     ``rgb_encoder`` is LeRobot's ``RGBEncoderConfig`` of the videos (default: LeRobot's);
     ``key_spacing`` places keyframes by new images for frames that repeat
-    (:class:`~libero_data.record.encoder.EpisodeVideoEncoder`).
+    (:class:`~libero_data.record.encoder.EpisodeVideoEncoder`); ``jpegs`` encodes the MCAP log's
+    images (:func:`~libero_data.record.mcap_log.episode_jpegs`, shared with another log).
     """
     if length is None:
         frames = list(frames)
@@ -159,6 +161,7 @@ def write_frames(
         info=info,
         rgb_encoder=rgb_encoder,
         key_spacing=key_spacing,
+        jpegs=jpegs,
     )()
 
 
@@ -175,6 +178,7 @@ def _start(
     info: dict[str, Any],
     rgb_encoder: Any = None,
     key_spacing: int | None = None,
+    jpegs: Callable[[np.ndarray], bytes] | None = None,
 ) -> Callable[[], Path]:
     """Feed every frame to a new shard in a scratch folder beside ``out``; returns the call
     that writes the rest and renames the folder to ``out`` (the scratch folder is removed if
@@ -225,6 +229,7 @@ def _start(
                 success=success,
                 fps=FPS,
                 metadata={k: json.dumps(v) for k, v in info.items()},
+                jpegs=jpegs,
             )
             (tmp / INFO_NAME).write_text(json.dumps({**info, "length": length}, sort_keys=True))
             commit_folder(tmp, out)
