@@ -9,11 +9,12 @@ added, and every entry is stamped with the snapshot's id for :mod:`publish`.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import json
 import os
 import shutil
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +46,8 @@ def build_snapshot(
         shutil.rmtree(out)
     if not shards:
         raise RuntimeError("a snapshot needs at least one episode")
-    with contextlib.redirect_stderr(io.StringIO()):  # aggregate_datasets draws progress bars
+    # aggregate_datasets draws progress bars; it reads each shard's episode table in memory
+    with contextlib.redirect_stderr(io.StringIO()), episodes_in_memory():
         aggregate_datasets(
             [SHARD_REPO] * len(shards),
             repo_id,
@@ -81,6 +83,46 @@ def build_snapshot(
     (out / "README.md").write_text(with_data_size(card, data_bytes))
     stamp(out, snapshot_id)
     return episodes
+
+
+@contextlib.contextmanager
+def episodes_in_memory() -> Iterator[None]:
+    """Within the block, LeRobot's dataset metadata reads a dataset's episode table straight
+    into memory (:func:`read_episodes`) instead of through ``datasets.Dataset.from_parquet``.
+
+    ``from_parquet`` converts every file into an Arrow cache under the user's
+    ``~/.cache/huggingface/datasets`` (outside the folders a command is given, one more entry per
+    shard and snapshot, never removed) and costs ~0.3 s a shard, paid for every shard at every
+    snapshot. The table is the same: its rows and its features (tests/pipeline/test_snapshot.py).
+    """
+    from lerobot.datasets import dataset_metadata
+
+    original = dataset_metadata.load_episodes
+    dataset_metadata.load_episodes = read_episodes
+    try:
+        yield
+    finally:
+        dataset_metadata.load_episodes = original
+
+
+def read_episodes(root: Path) -> Any:
+    """A LeRobot dataset's episode table (``meta/episodes``) as LeRobot's ``load_episodes`` gives
+    it (a ``datasets.Dataset`` without the per-episode statistics columns), read into memory."""
+    import datasets
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    from datasets.table import InMemoryTable
+    from lerobot.datasets.utils import EPISODES_DIR
+
+    paths = sorted((Path(root) / EPISODES_DIR).glob("*/*.parquet"))
+    if not paths:
+        raise FileNotFoundError(f"{Path(root) / EPISODES_DIR} holds no parquet file")
+    table = pa.concat_tables([pq.read_table(path) for path in paths])
+    # named by the files it was read from (``datasets`` would otherwise pickle the whole table to name it)
+    files = "\n".join(f"{path}:{path.stat().st_size}:{path.stat().st_mtime_ns}" for path in paths)
+    fingerprint = hashlib.sha256(files.encode()).hexdigest()[:16]
+    episodes = datasets.Dataset(InMemoryTable(table), fingerprint=fingerprint)
+    return episodes.select_columns([key for key in episodes.features if not key.startswith("stats/")])
 
 
 def _link(src: Path, dst: Path) -> None:
