@@ -22,8 +22,9 @@ protocol:
   with ``--render-quality fast`` (not the standard's pixels).
 
 Rollouts per minute, and each against the fastest peer at the same number of processes. The
-machine's limit beside: the physics of every step and the two 256 px frames of each observation
-the standard protocol's policy reads, per core, measured in the same run.
+machine's limit beside: the CPU time of every step as the standard protocol takes it (LIBERO's own
+``env.step``) and of the two 256 px frames of each observation its policy reads, per core,
+measured in the same run.
 
     bash benchmarks/peers/make_envs.sh
     python -m benchmarks.bench_peers --results
@@ -160,21 +161,27 @@ PHASES = {"step_s": "steps", "store_s": "storing", "build_s": "builds", "reset_s
 
 
 def machine_limit(args: argparse.Namespace) -> dict[str, float]:
-    """Physics ms per control step and ms per 256 px frame (one camera) on this machine, and the
-    standard protocol's least seconds per episode on one core from them."""
+    """CPU ms per control step as the standard protocol steps (LIBERO's own ``env.step`` through
+    robosuite, :class:`~libero_data.sim.libero_loop.LiberoLoop`, images off) and per 256 px frame
+    (one camera; llvmpipe's threads included) on this machine, and the standard protocol's least
+    CPU seconds per episode from them."""
     code = (
         "import json, time, numpy as np\n"
         "from libero_data.sim import EnvConfig, LiberoEnv\n"
-        f"env = LiberoEnv({args.task!r}, EnvConfig(image_size=256))\n"
-        "env.reset(seed=0, settle=10)\n"
+        "from libero_data.sim.libero_loop import LiberoLoop\n"
+        "from libero_data.tasks import get_task\n"
+        f"task = get_task({args.task!r})\n"
+        "env = LiberoEnv(task, EnvConfig(image_size=256))\n"
+        "loop = LiberoLoop(env)\n"
+        "loop.reset(task.init_states()[0], 0)\n"
         "a = np.zeros(7); a[6] = -1\n"
-        "t = time.perf_counter()\n"
-        "for _ in range(200): env.advance(a)\n"
-        "step = (time.perf_counter() - t) / 200\n"
-        "t = time.perf_counter()\n"
+        "t = time.process_time()\n"
+        "for _ in range(200): loop.step(a, render=False)\n"
+        "step = (time.process_time() - t) / 200\n"
+        "t = time.process_time()\n"
         "for _ in range(20):\n"
         "    env.render('agentview'); env.render('eye_in_hand')\n"
-        "frame = (time.perf_counter() - t) / 40\n"
+        "frame = (time.process_time() - t) / 40\n"
         "print(json.dumps({'step_ms': step * 1e3, 'frame_ms': frame * 1e3}))\n"
     )
     _seconds, costs = _run_json([sys.executable, "-c", code])
@@ -204,10 +211,11 @@ def table(rows: list[Row], limit: dict[str, float], args: argparse.Namespace) ->
     per_core = 60 / limit["episode_s"]
     lines += [
         "",
-        f"The machine's limit under the standard protocol: {limit['step_ms']:.1f} ms of physics per step, "
-        f"{limit['frame_ms']:.0f} ms per 256 px frame, so at least {limit['episode_s']:.1f} s per episode "
-        f"({args.max_steps + 10} steps, {math.ceil(args.max_steps / 5) + 1} observations of two frames): "
-        f"{per_core:.2f} rollouts/min per core, the policy's time aside.",
+        f"The machine's limit under the standard protocol: {limit['step_ms']:.1f} CPU-ms per step (LIBERO's own "
+        f"`env.step`, which the protocol keeps to the last bit), {limit['frame_ms']:.0f} CPU-ms per 256 px frame, "
+        f"so at least {limit['episode_s']:.1f} CPU-s per episode ({args.max_steps + 10} steps, "
+        f"{math.ceil(args.max_steps / 5) + 1} observations of two frames): {per_core:.2f} rollouts/min per core, "
+        "the policy's time aside.",
     ]
     for row in rows:
         if row.phases:
