@@ -225,9 +225,7 @@ def generate_cmd(
 ) -> None:
     """Make demonstrations of a suite's tasks as a LeRobot v3 dataset, with MCAP logs and a dataset card.
 
-    The scripted expert makes them unless --source names another demonstration source. With
-    --procedural or --variants-of, new tasks (procedural ones, robustness variants) are made and
-    written into --out first, with their dataset. Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
+    The scripted expert makes them unless --source names another demonstration source. With --procedural or --variants-of, new tasks (procedural ones, robustness variants) are made and written into --out first, with their dataset. Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
     """
     from libero_data.pipeline.request import parse_max_length, resolve_request
     from libero_data.record.features import PROFILE_IMAGE_SIZE
