@@ -38,6 +38,7 @@ def test_help_stays_whole_at_80_columns(name: str) -> None:
 def test_help_names_what_each_kind_of_client_gets() -> None:
     """``generate --help`` names every registered source and what a request for it needs;
     ``serve --help`` says what openpi's client gets from a policy that acts step by step."""
+    from libero_bench.registry_docs import ours
     from libero_data.pipeline.sources import demo_sources
 
     apps = dict(_apps())
@@ -51,7 +52,7 @@ def test_help_names_what_each_kind_of_client_gets() -> None:
 
     generate = help_text("libero-data", "generate")
     # the project's sources (a test's throw-away one may be registered after the help was made)
-    for source in (s for s in demo_sources() if type(s).__module__.startswith("libero_data.")):
+    for source in (s for s in demo_sources() if ours(type(s))):
         named = f"{source.name}, only with {source.needs}" if source.needs else source.name
         assert letters(named) in generate, f"generate --help does not name the source {named!r}"
     assert letters("Generate scripted demonstrations") not in generate

@@ -10,13 +10,10 @@ import typer
 
 from libero_data.tasks.horizons import OPENPI_LIMITS, SUITE, limit_text
 
+_DEVICES = "cpu, cuda or mps (default: cuda where available, then mps, else cpu)"
 Device = Annotated[
     str | None,
-    typer.Option(
-        "--device",
-        help="Where the policy runs, once for all environments: cpu, cuda or mps (default: cuda where "
-        "available, then mps, else cpu).",
-    ),
+    typer.Option("--device", help=f"Where the policy runs, once for all environments: {_DEVICES}."),
 ]
 EnvWorkers = Annotated[
     int,
@@ -90,12 +87,13 @@ KeepRollouts = Annotated[
     ),
 ]
 
+_STEP_LIMIT = f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}"
+_BASE_SUITE = "a LIBERO-PRO, LIBERO-Plus or variant task takes its base suite's"
 MaxSteps = Annotated[
     str,
     typer.Option(
         "--max-steps",
-        help=f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}; a LIBERO-PRO, "
-        "LIBERO-Plus or variant task takes its base suite's.",
+        help=f"{_STEP_LIMIT}; {_BASE_SUITE}.",
         show_default=True,
     ),
 ]
@@ -104,10 +102,9 @@ EvalMaxSteps = Annotated[
     str,
     typer.Option(
         "--max-steps",
-        help=f"Steps before a rollout is cut: a number, or 'suite' for {limit_text(SUITE)}; under --protocol "
-        "standard and --benchmark, openpi's ("
+        help=f"{_STEP_LIMIT}; under --protocol standard and --benchmark, openpi's ("
         + ", ".join(f"{suite} {n}" for suite, n in OPENPI_LIMITS.items())
-        + "); a LIBERO-PRO, LIBERO-Plus or variant task takes its base suite's.",
+        + f"); {_BASE_SUITE}.",
         show_default=True,
     ),
 ]
@@ -115,8 +112,8 @@ ServeDevice = Annotated[
     str | None,
     typer.Option(
         "--device",
-        help="Where the served policy runs, one batched forward pass for every request that arrives together: "
-        "cpu, cuda or mps (default: cuda where available, then mps, else cpu).",
+        help="Where the served policy runs, one batched forward pass for every request that arrives "
+        f"together: {_DEVICES}.",
     ),
 ]
 

@@ -227,22 +227,20 @@ ImageSize = Annotated[
 OutFolder = Annotated[Path, typer.Option("--out", "-o", help="Output folder.")]
 
 
+_RENDER_QUALITY = (
+    "'full' (LIBERO's renderer, pixel for pixel) or 'fast' (simplified visual meshes, ~3x fewer "
+    "milliseconds per frame on a CPU; {})."
+)
 RenderQuality = Annotated[
     str,
     typer.Option(
-        "--render-quality",
-        help="'full' (LIBERO's renderer, pixel for pixel) or 'fast' (simplified visual meshes, ~3x fewer "
-        "milliseconds per frame on a CPU; the card states the measured image difference).",
+        "--render-quality", help=_RENDER_QUALITY.format("the card states the measured image difference")
     ),
 ]
 #: ... for a command that writes no card (it shows or evaluates).
 ViewRenderQuality = Annotated[
     str,
-    typer.Option(
-        "--render-quality",
-        help="'full' (LIBERO's renderer, pixel for pixel) or 'fast' (simplified visual meshes, ~3x fewer "
-        "milliseconds per frame on a CPU; the images differ slightly from LIBERO's).",
-    ),
+    typer.Option("--render-quality", help=_RENDER_QUALITY.format("the images differ slightly from LIBERO's")),
 ]
 
 

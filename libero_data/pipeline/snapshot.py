@@ -92,8 +92,8 @@ def episodes_in_memory() -> Iterator[None]:
 
     ``from_parquet`` converts every file into an Arrow cache under the user's
     ``~/.cache/huggingface/datasets`` (outside the folders a command is given, one more entry per
-    shard and snapshot, never removed) and costs ~0.3 s a shard, paid for every shard at every
-    snapshot. The table is the same: its rows and its features (tests/pipeline/test_snapshot.py).
+    shard and snapshot, never removed), for every shard at every snapshot. The table is the same:
+    its rows and its features (tests/pipeline/test_snapshot.py).
     """
     from lerobot.datasets import dataset_metadata
 

@@ -91,7 +91,9 @@ class _CameraThread(threading.Thread):
         stream: Any = None
         counts = np.zeros((0, 256), dtype=np.int64)  # replaced at the first frame
         previous: np.ndarray | None = None  # the frame before (only where keyframes follow new images)
-        frame_counts: np.ndarray = counts
+        frame_counts: np.ndarray = np.zeros(
+            (0, 256), dtype=np.int64
+        )  # set at the first frame (never a repeat)
         last_key = 0
         try:
             while True:

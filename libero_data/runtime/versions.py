@@ -19,7 +19,7 @@ def versions(*, python: bool = False) -> dict[str, str]:
 @functools.cache
 def _installed(packages: tuple[str, ...]) -> tuple[tuple[str, str], ...]:
     """The installed versions, read once per process (each lookup scans the installed
-    distributions: ~0.1 s for the list, asked for by every file a run writes)."""
+    distributions, and every file a run writes asks for them)."""
     from importlib.metadata import PackageNotFoundError, version
 
     found = []

@@ -189,7 +189,7 @@ class DemoSource:
         """What the card of ``request``'s dataset (of ``suite``) says of its episodes, from each
         episode's ``episode.json`` (``infos``). By default: the source's name and ``description``,
         where the episodes began as recorded, and the goal checked on every episode."""
-        began = sorted({int(i.get("init_index", -1)) for i in infos} - {-1})
+        began = stored_starts(infos)
         where = (
             f"{len(began)} of them began from LIBERO's stored init states ({', '.join(map(str, began))}), the "
             "states the paper's evaluation starts from: a policy evaluated on those has seen its starts in training"
@@ -222,6 +222,11 @@ class DemoSource:
         if not text:
             return "it does not say how."
         return text if text.endswith(".") else f"{text}."
+
+
+def stored_starts(infos: list[dict[str, Any]]) -> list[int]:
+    """The LIBERO stored init states that a dataset's episodes (their ``episode.json``) began from."""
+    return sorted({int(i["init_index"]) for i in infos if int(i.get("init_index", -1)) >= 0})
 
 
 DEMO_SOURCES: Registry[DemoSource] = Registry("demonstration source")

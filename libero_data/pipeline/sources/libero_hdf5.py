@@ -14,7 +14,13 @@ import numpy as np
 
 from libero_data.cards.card import SuccessColumn
 from libero_data.errors import DatasetError
-from libero_data.pipeline.sources.base import CardPart, DemoSource, EpisodeRecord, register_source
+from libero_data.pipeline.sources.base import (
+    CardPart,
+    DemoSource,
+    EpisodeRecord,
+    register_source,
+    stored_starts,
+)
 
 if TYPE_CHECKING:
     from libero_data.hdf5.reader import LiberoFile
@@ -191,7 +197,7 @@ def import_settings(
 
 def import_start_note(infos: list[dict[str, Any]]) -> str:
     """Where the card says an imported dataset's episodes began."""
-    began = sorted({int(i["init_index"]) for i in infos if int(i.get("init_index", -1)) >= 0})
+    began = stored_starts(infos)
     return (
         "Human demonstrations do not say where they began. Each one's first kept state was compared with LIBERO's "
         f"50 stored init states (settings: began from a stored init state): {len(began)} distinct init states "
