@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -44,9 +44,12 @@ def report_cmd(
 
 @user_errors
 def compare_cmd(
-    run_a: Annotated[Path, typer.Argument(help="A run folder, or a robustness sweep's folder (A).")],
-    run_b: Annotated[
-        Path, typer.Argument(help="Another run folder (B) on the same tasks, or another sweep of them.")
+    runs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="Two run folders (A, then B); or the seeds of two methods, every run of both (A is the "
+            "method of the first one named); or two robustness sweeps' folders."
+        ),
     ],
     out: Annotated[
         Path | None,
@@ -64,20 +67,41 @@ def compare_cmd(
     same tasks, FWT, NBT and AUC are compared too: the difference A − B with its 95% bootstrap
     interval (paired over starts when both runs were evaluated alike).
 
+    Several seeds of two methods (runs of one algorithm, policy, preset, tasks and settings are
+    one method) are paired by seed and start and pooled: McNemar's test on every seed's
+    discordant starts; the mean of the seeds' differences with a bootstrap interval over seeds
+    and starts and a permutation test stratified by seed.
+
     Two robustness sweeps (`libero-bench robustness` folders) are compared per kind and level
     from their shared held-out placements: B − A with a paired bootstrap interval, McNemar's test,
     and side-by-side heatmaps.
     """
     from libero_bench.robustness.cells import REPORT
+    from libero_data.errors import InputError
 
-    if (run_a / f"{REPORT}.json").is_file() or (run_b / f"{REPORT}.json").is_file():
-        _compare_sweeps(run_a, run_b, out)
+    if len(runs) < 2:
+        raise InputError("compare needs two run folders (A and B), or the runs of two methods' seeds")
+    if len(runs) == 2 and any((run / f"{REPORT}.json").is_file() for run in runs):
+        _compare_sweeps(runs[0], runs[1], out)
         return
-    from libero_bench.analysis.compare import compare_runs, comparison_markdown, metric_line, verdict
-    from libero_data.runtime.files import write_json, write_text
+    if len(runs) > 2:
+        _compare_methods(runs, out)
+        return
+    from libero_bench.analysis.compare import compare_runs, comparison_markdown
 
-    result = compare_runs(run_a, run_b)
+    result = compare_runs(runs[0], runs[1])
+    _say_lines(result)
     text = comparison_markdown(result)
+    if out is not None:
+        for side in ("a", "b"):  # the runs named from the comparison's folder, which may move with them
+            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), out.resolve())
+    _write_comparison(result, text, out)
+
+
+def _say_lines(result: dict[str, Any]) -> None:
+    """One line per kind of start on final success, one per metric."""
+    from libero_bench.analysis.compare import metric_line, verdict
+
     for start in ("stored", "heldout"):
         block = result.get(start)
         if block is not None:
@@ -88,14 +112,45 @@ def compare_cmd(
             )
             for name, metric in (block["difference"] or {}).get("metrics", {}).items():
                 say(f"{start} starts, {metric_line(name, metric)}")
-    if out is not None:
-        for side in ("a", "b"):  # the runs named from the comparison's folder, which may move with them
-            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), out.resolve())
-        write_json(out / "compare.json", result)
-        write_text(out / "compare.md", text)
-        say(f"wrote {out / 'compare.json'} and {out / 'compare.md'}")
-    else:
+
+
+def _write_comparison(result: dict[str, Any], text: str, out: Path | None) -> None:
+    from libero_data.runtime.files import write_json, write_text
+
+    if out is None:
         say(text)
+        return
+    write_json(out / "compare.json", result)
+    write_text(out / "compare.md", text)
+    say(f"wrote {out / 'compare.json'} and {out / 'compare.md'}")
+
+
+def _compare_methods(runs: list[Path], out: Path | None) -> None:
+    """Two methods' seeds, paired by seed (libero_bench.analysis.seeds)."""
+    import json
+
+    from libero_bench.analysis.seeds import compare_seeds, relative_paths, seeds_markdown
+    from libero_bench.runs.summary import load_run
+    from libero_data.errors import InputError
+
+    methods: dict[str, list[Path]] = {}
+    for path in runs:
+        run = load_run(path)
+        key = json.dumps([run.group, run.config.get("algo_config")], sort_keys=True)
+        methods.setdefault(key, []).append(path)
+    if len(methods) != 2:
+        raise InputError(
+            f"the {len(runs)} runs form {len(methods)} method(s) (algorithm, policy, preset, tasks and "
+            "settings); compare takes the seeds of exactly two"
+        )
+    runs_a, runs_b = methods.values()
+    result = compare_seeds(runs_a, runs_b)
+    say(f"seeds {', '.join(map(str, result['seeds']))}, paired by seed and start")
+    _say_lines(result)
+    text = seeds_markdown(result)
+    if out is not None:
+        relative_paths(result, out)
+    _write_comparison(result, text, out)
 
 
 def _compare_sweeps(sweep_a: Path, sweep_b: Path, out: Path | None) -> None:

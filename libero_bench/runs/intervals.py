@@ -155,18 +155,16 @@ class RunDraws:
             return math.nan
 
 
-def swap_test(
+def swap_null(
     a: RunDraws, b: RunDraws, names: Sequence[str], draws: int = DRAWS, seed: int = SEED
-) -> dict[str, float]:
-    """Two-sided p-value of a paired permutation test of ``metric(A) - metric(B)``, for each
-    metric in ``names``.
+) -> dict[str, np.ndarray]:
+    """The null distribution of ``metric(A) - metric(B)`` under a paired permutation, for each
+    metric in ``names``: (draws,) signed differences, NaN where a metric is undefined.
 
     If the two runs were exchangeable, either run's outcome from a start (in every cell) could
-    as well have been the other's: each pair is swapped with probability 1/2, the metric
-    differences recomputed, and p is the share of draws at least as far from 0 as the observed
-    one (one set of swaps serves every metric). For one cell this is McNemar's exact test
-    (estimated from the draws). Needs both runs evaluated alike (the same
-    :attr:`RunDraws.layout`)."""
+    as well have been the other's: each pair is swapped with probability 1/2 and the metric
+    difference recomputed (one set of swaps serves every metric). Needs both runs evaluated
+    alike (the same :attr:`RunDraws.layout`)."""
     if a.layout != b.layout:
         raise ValueError(
             "the runs were not evaluated alike (cells or rollouts differ); they cannot be paired"
@@ -186,17 +184,29 @@ def swap_test(
     (curves_a, curves_b), (afters_a, afters_b) = swapped
     a.fill_mtl_after(curves_a, afters_a)
     b.fill_mtl_after(curves_b, afters_b)
-    p_values = {}
-    for name in names:
-        observed = abs(a.value(name) - b.value(name))
-        if not math.isfinite(observed):
-            p_values[name] = math.nan
-            continue
-        null = np.abs(a.metric_of(name, curves_a, afters_a) - b.metric_of(name, curves_b, afters_b))
-        null = null[np.isfinite(null)]
-        # At least as far from 0 (with a tolerance for rounding), counting the observed draw itself.
-        p_values[name] = float((1 + np.sum(null >= observed - 1e-9)) / (1 + null.size))
-    return p_values
+    return {
+        name: a.metric_of(name, curves_a, afters_a) - b.metric_of(name, curves_b, afters_b) for name in names
+    }
+
+
+def permutation_p(observed: float, null: np.ndarray) -> float:
+    """Two-sided p of an observed difference against its null draws: the share of finite draws at
+    least as far from 0 (with a tolerance for rounding), counting the observed draw itself; NaN
+    when the observed difference is undefined."""
+    if not math.isfinite(observed):
+        return math.nan
+    far = np.abs(null[np.isfinite(null)])
+    return float((1 + np.sum(far >= abs(observed) - 1e-9)) / (1 + far.size))
+
+
+def swap_test(
+    a: RunDraws, b: RunDraws, names: Sequence[str], draws: int = DRAWS, seed: int = SEED
+) -> dict[str, float]:
+    """Two-sided p-value of a paired permutation test of ``metric(A) - metric(B)``, for each
+    metric in ``names`` (:func:`swap_null`; for one cell this is McNemar's exact test, estimated
+    from the draws)."""
+    null = swap_null(a, b, names, draws, seed)
+    return {name: permutation_p(a.value(name) - b.value(name), null[name]) for name in names}
 
 
 def _as_matrices(results: RunResults, k: int, start: str) -> tuple[np.ndarray, np.ndarray]:

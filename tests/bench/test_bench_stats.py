@@ -13,81 +13,9 @@ import pytest
 
 from libero_bench.analysis.compare import compare_runs
 from libero_bench.analysis.report import summarize, write_report
-from libero_bench.runs.folder import RUN_FORMAT, RunResults, rollout_key
 from libero_bench.runs.summary import load_run
 from libero_data.stats import mcnemar_exact
-
-TASKS = ["pick_up_the_ketchup", "pick_up_the_milk"]
-
-
-def _fake_run(
-    root: Path,
-    *,
-    algo: str,
-    seed: int,
-    learn: list[list[int]],
-    after: list[int],
-    heldout: list[list[int]] | None = None,
-) -> Path:
-    """A finished 2-task run: ``learn[k]`` the outcomes of task k at its one evaluated epoch
-    (stored starts), ``after`` task 0's outcomes after task 1, ``heldout[k]`` held-out outcomes."""
-    from libero_data.runtime.files import write_json as write
-
-    results = RunResults.empty([{"position": i, "name": n, "language": n} for i, n in enumerate(TASKS)], [5])
-    results.best_epoch = [5, 5]
-    results.stage = ["done", "done"]
-    results.complete = True
-    rollouts = []
-
-    def add(k: int, phase: str, learned_after: int, outcomes: list[int], start: str) -> float:
-        for r, ok in enumerate(outcomes):
-            epoch = 5 if phase == "learning" else None
-            rollouts.append(
-                {
-                    "key": rollout_key(learned_after, phase, k, r, epoch, start),
-                    "task": TASKS[k],
-                    "task_position": k,
-                    "learned_after": learned_after,
-                    "phase": phase,
-                    "epoch": epoch,
-                    "rollout": r,
-                    "start": start,
-                    "init_index": r if start == "stored" else -1,
-                    "env_seed": r if start == "stored" else 1000 + r,
-                    "success": bool(ok),
-                    "steps": 10,
-                }
-            )
-        return sum(outcomes) / len(outcomes)
-
-    for k in range(2):
-        results.curve[k][0] = add(k, "learning", k, learn[k], "stored")
-        results.after[k][k] = results.curve[k][0]
-        if heldout is not None:
-            results.curve_heldout[k][0] = add(k, "learning", k, heldout[k], "heldout")
-            results.after_heldout[k][k] = results.curve_heldout[k][0]
-    results.after[1][0] = add(0, "after", 1, after, "stored")
-    if heldout is not None:
-        results.after_heldout[1][0] = add(0, "after", 1, heldout[0][::-1], "heldout")
-    results.rollouts = rollouts
-    config = {
-        "format": RUN_FORMAT,
-        "algo": algo,
-        "policy": "resnet_t",
-        "preset": {"name": "quick"},
-        "seed": seed,
-        "tasks": [{"position": i, "name": n, "language": n} for i, n in enumerate(TASKS)],
-        "evaluation": {
-            "training_starts": {
-                TASKS[0]: {"recorded": True, "stored_eval_starts_trained_on": []},
-                TASKS[1]: {"recorded": True, "stored_eval_starts_trained_on": [0, 1, 2]},
-            }
-        },
-    }
-    root.mkdir(parents=True)
-    write(root / "config.json", config)
-    write(root / "results.json", results.to_dict())
-    return root
+from tests.bench.fake_runs import TASKS, fake_run
 
 
 def test_mcnemar_exact_matches_the_binomial_test() -> None:
@@ -99,7 +27,7 @@ def test_mcnemar_exact_matches_the_binomial_test() -> None:
 
 
 def test_report_gives_rates_with_n_and_intervals_from_both_kinds_of_start(tmp_path: Path) -> None:
-    run = _fake_run(
+    run = fake_run(
         tmp_path / "a",
         algo="seql",
         seed=0,
@@ -136,7 +64,7 @@ def test_report_gives_rates_with_n_and_intervals_from_both_kinds_of_start(tmp_pa
 
 def test_several_seeds_give_one_interval_over_runs_and_rollouts(tmp_path: Path) -> None:
     runs = [
-        _fake_run(
+        fake_run(
             tmp_path / f"s{seed}",
             algo="er",
             seed=seed,
@@ -154,10 +82,10 @@ def test_several_seeds_give_one_interval_over_runs_and_rollouts(tmp_path: Path) 
 
 
 def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) -> None:
-    seql = _fake_run(
+    seql = fake_run(
         tmp_path / "seql", algo="seql", seed=0, learn=[[1] * 20, [1] * 20], after=[0] * 18 + [1] * 2
     )
-    er = _fake_run(tmp_path / "er", algo="er", seed=0, learn=[[1] * 20, [1] * 20], after=[1] * 20)
+    er = fake_run(tmp_path / "er", algo="er", seed=0, learn=[[1] * 20, [1] * 20], after=[1] * 20)
     result = compare_runs(seql, er)
     task0 = result["stored"]["tasks"][TASKS[0]]
     assert (task0["a"]["successes"], task0["b"]["successes"], task0["only_a"], task0["only_b"]) == (
@@ -213,16 +141,16 @@ def test_compare_pairs_the_same_starts_and_tests_the_difference(tmp_path: Path) 
 
 
 def test_the_nbt_difference_is_not_significant_when_both_runs_forget_alike(tmp_path: Path) -> None:
-    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 10, [1] * 10], after=[1, 0] * 5)
-    b = _fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 10, [1] * 10], after=[0, 1] * 5)
+    a = fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 10, [1] * 10], after=[1, 0] * 5)
+    b = fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 10, [1] * 10], after=[0, 1] * 5)
     nbt = compare_runs(a, b)["stored"]["difference"]["metrics"]["nbt"]
     assert nbt["difference"] == 0.0 and nbt["low"] < 0 < nbt["high"]
     assert nbt["p_value"] == 1.0 and not nbt["significant"]
 
 
 def test_runs_evaluated_differently_are_compared_by_independent_bootstraps(tmp_path: Path) -> None:
-    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 20, [1] * 20], after=[0] * 20)
-    b = _fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 10, [1] * 10], after=[1] * 10)
+    a = fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 20, [1] * 20], after=[0] * 20)
+    b = fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 10, [1] * 10], after=[1] * 10)
     difference = compare_runs(a, b)["stored"]["difference"]
     nbt = difference["metrics"]["nbt"]
     assert not difference["paired"] and nbt["p_value"] is None
@@ -234,8 +162,8 @@ def test_the_permutation_test_of_one_success_rate_is_mcnemars(tmp_path: Path, on
     """A one-task run's FWT is one success rate: swapping paired outcomes at random is McNemar's
     exact test, up to the error of 2000 draws."""
     learn_a = [[1] * 20, [1] * only_a + [0] * (20 - only_a)]
-    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=learn_a, after=[1] * 20)
-    b = _fake_run(tmp_path / "b", algo="seql", seed=0, learn=[[1] * 20, [0] * 20], after=[1] * 20)
+    a = fake_run(tmp_path / "a", algo="seql", seed=0, learn=learn_a, after=[1] * 20)
+    b = fake_run(tmp_path / "b", algo="seql", seed=0, learn=[[1] * 20, [0] * 20], after=[1] * 20)
     fwt = compare_runs(a, b)["stored"]["difference"]["metrics"]["fwt"]
     assert fwt["difference"] == pytest.approx(only_a / 40)
     assert fwt["p_value"] == pytest.approx(mcnemar_exact(only_a, 0), abs=0.02)
@@ -243,8 +171,8 @@ def test_the_permutation_test_of_one_success_rate_is_mcnemars(tmp_path: Path, on
 
 
 def test_runs_evaluated_from_other_starts_are_not_paired(tmp_path: Path) -> None:
-    a = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
-    b = _fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
+    a = fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
+    b = fake_run(tmp_path / "b", algo="er", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
     results = json.loads((b / "results.json").read_text())
     for r in results["rollouts"]:
         r["env_seed"] += 7
@@ -257,7 +185,7 @@ def test_runs_evaluated_from_other_starts_are_not_paired(tmp_path: Path) -> None
 def test_the_report_states_the_step_limit_the_rollouts_had(tmp_path: Path) -> None:
     import json
 
-    run = _fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
+    run = fake_run(tmp_path / "a", algo="seql", seed=0, learn=[[1] * 4, [1] * 4], after=[1] * 4)
     config = json.loads((run / "config.json").read_text())
     config["preset"]["eval_max_steps"] = "suite"
     config["dataset"] = {"suite": "libero_10"}
