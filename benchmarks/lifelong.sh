@@ -15,7 +15,11 @@
 #          setting (the highest held-out AUC, benchmarks/lifelong_report.py --pick; EWC_RUN and
 #          PACKNET_RUN name another sweep run), going on from that run's folder when WORK_DIR holds it
 #          instead of learning tasks 0 and 1 again (the report says which)
-#   seeds  SeqL, ER and PackNet again with seed 1
+#   seeds  SeqL, ER, EWC and PackNet again with seeds 1 and 2 (SEEDS="1 2"; issue 78), the kept
+#          settings; ~30 h of one-core runs (the seed-0 runs' timings: PackNet 5.5 h, ER 4.1, EWC
+#          3.0, SeqL 2.6), ~15 h of the two cores
+#   arch   ER and PackNet with ResNet-RNN and ViT-T, seed 0 (ARCH_SEEDS="0"; issue 78), runs
+#          er-rnn-s0, er-vit-s0, packnet-rnn-s0, packnet-vit-s0
 #   all    every part in turn
 #   carry-out  pack WORK's unfinished runs and their dataset (without its MCAP logs) into CARRY
 #          (default benchmarks/results/lifelong/carry, to commit): a session's machine may keep only
@@ -30,6 +34,11 @@
 # RUNS="seql-s0 mtl-s0" limits a part to the runs it names, started in that order (a session too short for a whole part
 # runs some of its runs; the report is made once every run of the five is on record).
 #
+# seeds and arch learn from the five's data: where WORK_DIR has no object-64, it is taken from the
+# commit that carried it (DATA_COMMIT; made on an AMD EPYC, digest DATA_DIGEST), since making it
+# again on another machine gives other bytes, and a seed's runs are compared start for start with
+# the seed-0 runs.
+#
 # Runs go two at a time, one torch thread each (benchmarks/quick.sh says why), or alone on two threads
 # when a part has one run left; each resumes where it stopped when run again; logs in WORK_DIR/logs/.
 # Datasets, checkpoints and rollouts stay in WORK_DIR; each run's config, results and timings are
@@ -40,8 +49,8 @@ cd "$(dirname "$0")/.."
 work=$(realpath -m "${1:-../lifelong-work}")
 part="${2:-all}"
 case "$part" in
-  data | sweep | five | seeds | all | carry-out | carry-in) ;;
-  *) echo "lifelong.sh: PART must be data, sweep, five, seeds, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
+  data | sweep | five | seeds | arch | all | carry-out | carry-in) ;;
+  *) echo "lifelong.sh: PART must be data, sweep, five, seeds, arch, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
 esac
 preset=${PRESET:-quick}          # PRESET=smoke tries the script end to end in minutes
 episodes=${EPISODES:-100}
@@ -62,10 +71,12 @@ if [[ $part == carry-in ]]; then
 fi
 
 start_run() {  # name tasks algo seed threads [run options...]; on success its files go to $results
-  local name=$1 tasks=$2 algo=$3 seed=$4 threads=$5
+  local name=$1 tasks=$2 algo=$3 seed=$4 threads=$5 policy=resnet_t
   shift 5
+  [[ $name == *-rnn-s* ]] && policy=resnet_rnn
+  [[ $name == *-vit-s* ]] && policy=vit_t
   echo "$(date +%H:%M) start $name (log: $work/logs/$name.log)"
-  $lb run --data "$work/object-64" --tasks "$tasks" --algo "$algo" --policy resnet_t --preset "$preset" \
+  $lb run --data "$work/object-64" --tasks "$tasks" --algo "$algo" --policy "$policy" --preset "$preset" \
     --seed "$seed" --workers 2 --threads "$threads" --out "$work/runs/$name" "$@" >"$work/logs/$name.log" 2>&1
   mkdir -p "$results/runs/$name"  # what the report reads, committed; checkpoints stay in WORK_DIR
   cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
@@ -120,6 +131,15 @@ continue_from() {  # sweep-run run: the kept sweep run's folder becomes the run'
     echo "$work/runs/$1 is not here: $2 learns tasks 0 and 1 itself"
   fi
 }
+#: The commit whose carry folder holds the five's data, and that data's digest (benchmarks/lifelong_carry.py).
+DATA_COMMIT=68ed961^
+DATA_DIGEST=825acfe7ccd1a9022e4746c781756a3a7a435014d8058f60e30d1acafd031b14
+if [[ $part == seeds || $part == arch ]] && [[ ! -d $work/object-64 ]] && [[ $preset != smoke ]]; then
+  echo "taking the five's data from $DATA_COMMIT"
+  git archive "$DATA_COMMIT" benchmarks/results/lifelong/carry/datasets/object-64 | tar -x -C "$work" --strip-components=5
+  digest=$(.venv/bin/python -c "import sys; from pathlib import Path; from benchmarks.lifelong_carry import data_digest; print(data_digest(Path(sys.argv[1])))" "$work/object-64")
+  [[ $digest == "$DATA_DIGEST" ]] || { echo "$work/object-64 is not the five's data (digest $digest)" >&2; exit 1; }
+fi
 if [[ $part == data || $part == all ]]; then
   $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task "$episodes" --image-size 64 \
     --render-quality fast --workers 2 --seed 0 --out "$work/object-64"
@@ -133,7 +153,7 @@ if [[ $part == sweep || $part == all ]]; then
     "sweep-packnet-075|0,1,2|packnet|0|$(setting sweep-packnet-075) --stop-after 2"
   .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --sweep --out "$results"
 fi
-if [[ $part == five || $part == seeds || $part == all ]]; then
+if [[ $part == five || $part == seeds || $part == arch || $part == all ]]; then
   ewc_run=${EWC_RUN:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick ewc)}
   packnet_run=${PACKNET_RUN:-$(.venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --pick packnet)}
   setting "$ewc_run" >/dev/null && setting "$packnet_run" >/dev/null  # a name that is no sweep run stops here
@@ -150,8 +170,22 @@ if [[ $part == five || $part == all ]]; then
     "mtl-s0|0,1,2|mtl|0|"
 fi
 if [[ $part == seeds || $part == all ]]; then
-  run_all "seql-s1|0,1,2|seql|1|" "er-s1|0,1,2|er|1|" "packnet-s1|0,1,2|packnet|1|$(setting "$packnet_run")"
+  entries=()
+  for seed in ${SEEDS:-1 2}; do  # the longest first
+    entries+=("packnet-s$seed|0,1,2|packnet|$seed|$(setting "$packnet_run")" "er-s$seed|0,1,2|er|$seed|"
+      "ewc-s$seed|0,1,2|ewc|$seed|$(setting "$ewc_run")" "seql-s$seed|0,1,2|seql|$seed|")
+  done
+  run_all "${entries[@]}"
 fi
-if [[ $part == five || $part == seeds || $part == all ]] && [[ -z ${RUNS:-} ]]; then
+if [[ $part == arch || $part == all ]]; then
+  entries=()
+  for seed in ${ARCH_SEEDS:-0}; do
+    for policy in vit rnn; do
+      entries+=("packnet-$policy-s$seed|0,1,2|packnet|$seed|$(setting "$packnet_run")" "er-$policy-s$seed|0,1,2|er|$seed|")
+    done
+  done
+  run_all "${entries[@]}"
+fi
+if [[ $part == five || $part == seeds || $part == arch || $part == all ]] && [[ -z ${RUNS:-} ]]; then
   .venv/bin/python -m benchmarks.lifelong_report --runs "$results/runs" --out "$results"
 fi

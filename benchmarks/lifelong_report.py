@@ -1,24 +1,12 @@
-"""The LIBERO paper's five lifelong algorithms on one libero_object sequence, and its four findings
-about them tested on our runs (issue 59). Made from the committed run folders
-(``benchmarks/lifelong.sh``); RESULTS quotes what it writes.
+"""The LIBERO paper's lifelong algorithms and policy architectures on one libero_object sequence,
+and its findings about them tested on our runs (issues 59 and 78). Made from the committed run
+folders (``benchmarks/lifelong.sh``); RESULTS quotes what it writes. The findings and how each is
+decided: ``benchmarks/lifelong_findings.py``.
 
 The paper (LIBERO, Table VI, ResNet-T, three seeds) finds on LIBERO-Object: SeqL FWT 0.78, NBT 0.76,
 AUC 0.26; ER 0.67 / 0.43 / 0.44; EWC 0.56 / 0.69 / 0.16; PackNet 0.60 / 0.17 / 0.60; MTL success 0.54.
-Its findings about algorithms, and how each is tested here on the seed-0 runs (every algorithm
-learned the same tasks from the same data and was evaluated from the same starts, so each pair of
-runs is compared start for start with ``libero_bench.analysis.compare``):
-
-1. SeqL has the best forward transfer: SeqL's FWT against ER's, EWC's and PackNet's.
-2. PackNet forgets least (NBT against SeqL's, ER's and EWC's) and leads on LIBERO-Object (AUC
-   against theirs). Its other half, ER beating PackNet on LIBERO-Long, needs that suite: not run.
-3. EWC is worse than SeqL: EWC's FWT and AUC against SeqL's.
-4. ER is robust across suites: needs several suites; one is run here, so it is not tested.
-
-A finding's comparisons form a family; their paired permutation p-values are adjusted by Holm's
-method. A finding is *reproduced* when every comparison goes its way with an adjusted p < 0.05,
-*contradicted* when one goes the other way with an adjusted p < 0.05, and *not resolved at this
-budget* otherwise. Each kind of start (LIBERO's stored init states; held-out placements) gets its
-verdict; the held-out one is the headline (those starts chose no checkpoint).
+Every run learned the same tasks from the same data and was evaluated from the same starts, so
+two methods are compared over the seeds both have, paired by seed and start.
 
     python -m benchmarks.lifelong_report [--runs benchmarks/results/lifelong/runs] [--out benchmarks/results/lifelong]
 """
@@ -28,16 +16,23 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from libero_bench.runs.folder import STARTS
+from benchmarks.lifelong_findings import (
+    ALGO_NAMES,
+    ALGOS,
+    ALPHA,
+    FINDINGS,
+    POLICY_IDS,
+    comparisons,
+    display,
+    findings,
+    method_runs,
+    missing_runs,
+)
 
 RESULTS = Path(__file__).resolve().parent / "results" / "lifelong"
-ALGOS = ("seql", "er", "ewc", "packnet", "mtl")
-NAMES = {"seql": "SeqL", "er": "ER", "ewc": "EWC", "packnet": "PackNet", "mtl": "MTL"}
 #: The paper's LIBERO-Object row (Table VI, ResNet-T): FWT, NBT, AUC; MTL reports a success rate.
 PAPER = {
     "seql": {"fwt": 0.78, "nbt": 0.76, "auc": 0.26},
@@ -46,128 +41,11 @@ PAPER = {
     "packnet": {"fwt": 0.60, "nbt": 0.17, "auc": 0.60},
     "mtl": {"success": 0.54},
 }
-ALPHA = 0.05
-
-
-@dataclass(frozen=True)
-class Claim:
-    """One comparison of a finding: ``subject``'s ``metric`` is higher (``higher``) or lower than
-    ``other``'s."""
-
-    subject: str
-    other: str
-    metric: str
-    higher: bool
-
-
-@dataclass(frozen=True)
-class Finding:
-    key: str
-    text: str
-    claims: tuple[Claim, ...]
-    untested: str = ""  # why (part of) the finding cannot be tested on one suite
-
-
-FINDINGS = (
-    Finding(
-        "seql_best_fwt",
-        "SeqL has the best forward transfer",
-        tuple(Claim("seql", other, "fwt", True) for other in ("er", "ewc", "packnet")),
-    ),
-    Finding(
-        "packnet_forgets_least",
-        "PackNet forgets least (lowest NBT) and leads on LIBERO-Object (highest AUC)",
-        tuple(
-            Claim("packnet", other, metric, metric == "auc")
-            for metric in ("nbt", "auc")
-            for other in ("seql", "er", "ewc")
-        ),
-        untested="its other half, ER beating PackNet on LIBERO-Long, needs LIBERO-Long runs",
-    ),
-    Finding(
-        "ewc_worse_than_seql",
-        "EWC is worse than SeqL (lower FWT and AUC)",
-        (Claim("ewc", "seql", "fwt", False), Claim("ewc", "seql", "auc", False)),
-    ),
-    Finding(
-        "er_robust_across_suites",
-        "ER is robust across suites",
-        (),
-        untested="one suite (libero_object) is run at this budget",
-    ),
-)
-
-
-def seed0_runs(runs: Path) -> dict[str, Path]:
-    """Algorithm -> its seed-0 run folder (``<algo>-s0``)."""
-    found = {algo: runs / f"{algo}-s0" for algo in ALGOS if (runs / f"{algo}-s0" / "results.json").is_file()}
-    missing = [a for a in ALGOS if a not in found]
-    if missing:
-        raise SystemExit(
-            f"{runs} lacks the seed-0 runs of {', '.join(missing)} (benchmarks/lifelong.sh five)"
-        )
-    return found
-
-
-def comparisons(runs: dict[str, Path]) -> dict[str, dict[str, Any]]:
-    """'a-vs-b' -> ``compare_runs(a, b)`` for every pair a finding names."""
-    from libero_bench.analysis.compare import compare_runs
-
-    pairs = sorted({(c.subject, c.other) for f in FINDINGS for c in f.claims})
-    return {f"{a}-vs-{b}": compare_runs(runs[a], runs[b]) for a, b in pairs}
-
-
-def _claim_row(claim: Claim, compared: dict[str, dict[str, Any]], start: str) -> dict[str, Any]:
-    block = compared[f"{claim.subject}-vs-{claim.other}"][start]
-    metric = ((block or {}).get("difference") or {}).get("metrics", {}).get(claim.metric)
-    if metric is None:
-        return {"subject": claim.subject, "other": claim.other, "metric": claim.metric, "tested": False}
-    return {
-        "subject": claim.subject,
-        "other": claim.other,
-        "metric": claim.metric,
-        "tested": True,
-        "claimed": "higher" if claim.higher else "lower",
-        "subject_value": metric["a"],
-        "other_value": metric["b"],
-        "difference": metric["difference"],
-        "low": metric["low"],
-        "high": metric["high"],
-        "p_value": metric["p_value"],
-        "paired": metric["p_value"] is not None,
-        "as_claimed": (metric["difference"] > 0) == claim.higher and metric["difference"] != 0,
-    }
-
-
-def verdict(rows: list[dict[str, Any]]) -> str:
-    """reproduced / contradicted / not resolved, from a family's rows with Holm-adjusted p."""
-    if not rows or not all(r["tested"] for r in rows):
-        return "not tested"
-    significant = [r for r in rows if r["adjusted_p"] < ALPHA]
-    if any(not r["as_claimed"] for r in significant):
-        return "contradicted"
-    if len(significant) == len(rows):
-        return "reproduced"
-    return "not resolved at this budget"
-
-
-def findings(compared: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """Each finding's comparisons per kind of start, with Holm-adjusted p-values and a verdict."""
-    from libero_data.stats import holm_adjusted
-
-    out = []
-    for finding in FINDINGS:
-        entry: dict[str, Any] = {"key": finding.key, "text": finding.text, "untested": finding.untested}
-        for start in STARTS:
-            rows = [_claim_row(c, compared, start) for c in finding.claims]
-            tested = [r for r in rows if r["tested"]]
-            # unpaired rows (not evaluated alike) have no p-value: they count as not significant
-            p = [r["p_value"] if r["p_value"] is not None else 1.0 for r in tested]
-            for row, adjusted in zip(tested, holm_adjusted(p), strict=True):
-                row["adjusted_p"] = adjusted
-            entry[start] = {"rows": rows, "verdict": verdict(rows)}
-        out.append(entry)
-    return out
+NAMES = ALGO_NAMES
+#: The policy's name in a table row, where it is not the quick preset's ResNet-T.
+POLICY_NAMES = {
+    policy: name for name, policy in zip(("", "ResNet-RNN", "ViT-T"), POLICY_IDS.values(), strict=True)
+}
 
 
 def _value(x: float | None) -> str:
@@ -183,14 +61,17 @@ def _stat(stat: dict[str, Any] | None) -> str:
 
 
 def table_markdown(report: dict[str, Any]) -> str:
-    """Our five rows (held-out and stored starts) beside the paper's LIBERO-Object row."""
+    """Our rows (held-out and stored starts) beside the paper's LIBERO-Object row (ResNet-T's)."""
     lines = [
         "| algorithm | seeds | starts | FWT (↑) | NBT (↓) | AUC (↑) | final success | paper FWT / NBT / AUC |",
         "|---|---|---|---:|---:|---:|---:|---|",
     ]
     for group in report["groups"]:
         algo = group["algo"]
-        paper = PAPER.get(algo, {})
+        paper = PAPER.get(algo, {}) if group["policy"] == "resnet_t" else {}
+        name = NAMES.get(algo, algo) + (
+            f" ({POLICY_NAMES[group['policy']]})" if POLICY_NAMES.get(group["policy"]) else ""
+        )
         cited = (
             f"success {paper['success']:.2f}"
             if "success" in paper
@@ -205,7 +86,7 @@ def table_markdown(report: dict[str, Any]) -> str:
             successes = sum(f["successes"] for f in numbers["final"])
             n = sum(f["n"] for f in numbers["final"])
             lines.append(
-                f"| {NAMES.get(algo, algo)} | {', '.join(map(str, group['seeds']))} | {start.replace('heldout', 'held out')} | "
+                f"| {name} | {', '.join(map(str, group['seeds']))} | {start.replace('heldout', 'held out')} | "
                 f"{_stat(numbers['fwt'])} | {_stat(numbers['nbt'])} | {_stat(numbers['auc'])} | "
                 f"{successes}/{n} | {cited} |"
             )
@@ -223,6 +104,9 @@ def findings_markdown(entries: list[dict[str, Any]]) -> str:
         ]
         if entry["untested"]:
             lines += [f"Not tested: {entry['untested']}.", ""]
+        if entry.get("missing_runs"):
+            names = ", ".join(display(m) for m in entry["missing_runs"])
+            lines += [f"Not run yet: {names} (`benchmarks/lifelong.sh arch`).", ""]
         for start in ("heldout", "stored"):
             rows = [r for r in entry[start]["rows"] if r["tested"]]
             if not rows:
@@ -230,38 +114,59 @@ def findings_markdown(entries: list[dict[str, Any]]) -> str:
             lines += [
                 f"{start.replace('heldout', 'Held-out')} starts:".capitalize(),
                 "",
-                "| claim | subject | other | difference [95% interval] | p | Holm p |",
-                "|---|---:|---:|---:|---:|---:|",
+                "| claim | seeds | subject | other | difference [95% interval] | p | Holm p |",
+                "|---|---|---:|---:|---:|---:|---:|",
             ]
             for r in rows:
-                claim = f"{NAMES[r['subject']]} {r['metric'].upper()} {r['claimed']} than {NAMES[r['other']]}"
+                subject, metric, other = display(r["subject"]), r["metric"].upper(), display(r["other"])
+                claim = (
+                    f"{subject} {metric} against {other}"
+                    if r["claimed"] == "either"
+                    else f"{subject} {metric} {r['claimed']} than {other}"
+                )
                 p = "– (not paired)" if r["p_value"] is None else f"{r['p_value']:.3g}"
                 lines.append(
-                    f"| {claim} | {_value(r['subject_value'])} | {_value(r['other_value'])} | "
+                    f"| {claim} | {', '.join(map(str, r['seeds']))} | {_value(r['subject_value'])} | {_value(r['other_value'])} | "
                     f"{r['difference']:+.2f} [{r['low']:+.2f}, {r['high']:+.2f}] | {p} | {r['adjusted_p']:.3g} |"
                 )
             lines.append("")
     return "\n".join(lines)
 
 
-def second_seeds(runs: Path) -> list[Path]:
-    """The runs of another seed (``<algo>-s1``), reported with the seed-0 runs of their algorithm."""
-    return sorted(p for p in runs.iterdir() if p.name.endswith("-s1") and (p / "results.json").is_file())
+def seed0_runs(runs: Path) -> dict[str, Path]:
+    """Algorithm -> its seed-0 run folder (``<algo>-s0``); every one of the five must be there."""
+    found = {algo: runs / f"{algo}-s0" for algo in ALGOS if (runs / f"{algo}-s0" / "results.json").is_file()}
+    missing = [a for a in ALGOS if a not in found]
+    if missing:
+        raise SystemExit(
+            f"{runs} lacks the seed-0 runs of {', '.join(missing)} (benchmarks/lifelong.sh five)"
+        )
+    return found
 
 
 def report_runs(runs: Path) -> list[Path]:
-    """The run folders the report of the five covers: each algorithm's seed-0 run, then any other seed's."""
-    return [*seed0_runs(runs).values(), *second_seeds(runs)]
+    """The run folders the report covers: every seed of the five algorithms (each needs its
+    seed-0 run), then the architecture runs."""
+    seed0_runs(runs)
+    methods = method_runs(runs)
+    ordered = [m for m in ALGOS if m in methods] + [m for m in methods if m not in ALGOS]
+    return [p for m in ordered for p in methods[m]]
 
 
 def findings_record(runs: Path, out: Path) -> dict[str, Any]:
     """What ``findings.json`` holds: the paper's row, each finding tested, and the comparisons
     behind them (runs named relative to ``out``)."""
-    compared = comparisons(seed0_runs(runs))
+    from libero_bench.analysis.seeds import relative_paths
+
+    seed0_runs(runs)
+    methods = method_runs(runs)
+    compared = comparisons(methods)
     for result in compared.values():
-        for side in ("a", "b"):
-            result[side]["path"] = os.path.relpath(Path(result[side]["path"]).resolve(), out.resolve())
-    return {"alpha": ALPHA, "paper": PAPER, "findings": findings(compared), "comparisons": compared}
+        relative_paths(result, out)
+    entries = findings(compared)
+    for finding, entry in zip(FINDINGS, entries, strict=True):
+        entry["missing_runs"] = missing_runs(finding, methods)
+    return {"alpha": ALPHA, "paper": PAPER, "findings": entries, "comparisons": compared}
 
 
 def cost_rows(runs: Path) -> list[dict[str, Any]]:
@@ -396,9 +301,9 @@ def findings_document(runs: Path, report: dict[str, Any], record: dict[str, Any]
     its comparisons, and what the runs cost (``report``: the report's summary of the runs;
     ``record``: :func:`findings_record`)."""
     return (
-        "# The five lifelong algorithms on libero_object 0, 1, 2 (quick preset)\n\n"
+        "# The lifelong algorithms and architectures on libero_object 0, 1, 2 (quick preset)\n\n"
         + table_markdown(report)
-        + "\nIntervals: 95% bootstrap over rollouts (and over seeds where there are two). Paper: LIBERO, Table VI, "
+        + "\nIntervals: 95% bootstrap over rollouts (over seeds and rollouts where a method has several). Paper: LIBERO, Table VI, "
         "ResNet-T, LIBERO-Object, three seeds (its MTL row is a success rate).\n\n## The paper's findings\n"
         + findings_markdown(record["findings"])
         + "\n## What the runs cost\n\nTwo runs at a time on two cores, one torch thread each (`timings.jsonl` of each run).\n\n"
@@ -409,8 +314,8 @@ def findings_document(runs: Path, report: dict[str, Any], record: dict[str, Any]
 
 
 def main() -> None:
-    from libero_bench.analysis.compare import comparison_markdown
     from libero_bench.analysis.report import write_report
+    from libero_bench.analysis.seeds import seeds_markdown
     from libero_data.runtime.files import write_json, write_text
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -437,7 +342,7 @@ def main() -> None:
     report = write_report(report_runs(args.runs), args.out / "report")
     record = findings_record(args.runs, args.out)
     for name, result in record["comparisons"].items():
-        write_text(args.out / "compare" / f"{name}.md", comparison_markdown(result))
+        write_text(args.out / "compare" / f"{name}.md", seeds_markdown(result))
     write_json(args.out / "findings.json", record)
     text = findings_document(args.runs, report, record)
     write_text(args.out / "findings.md", text)
