@@ -107,7 +107,7 @@ FINDINGS = (
     ),
     Finding(
         "transformers_ahead_of_rnn",
-        "ResNet-T and ViT-T learn and keep more than ResNet-RNN (higher AUC, with ER and with PackNet)",
+        "ResNet-T and ViT-T beat ResNet-RNN (higher AUC with ER and PackNet)",
         tuple(
             Claim(method, rnn, "auc", True)
             for algo, (rnn, vit) in ARCHITECTURES.items()
@@ -116,8 +116,7 @@ FINDINGS = (
     ),
     Finding(
         "encoder_order_depends_on_algorithm",
-        "No single encoder is best for every algorithm (ViT-T against ResNet-T goes one way with ER, "
-        "the other with PackNet)",
+        "No encoder is best for every algorithm (ViT-T against ResNet-T differs between ER and PackNet)",
         tuple(Claim(vit, algo, "auc", None) for algo, (_, vit) in ARCHITECTURES.items()),
         order=True,
     ),
