@@ -3,6 +3,7 @@
 repository.
 
     python -m benchmarks.lifelong_carry out WORK CARRY   # each unfinished run of WORK/runs -> CARRY/<run>/
+        [--also RUN ...]                                 # and finished ones still to be evaluated
     python -m benchmarks.lifelong_carry in CARRY WORK    # back into WORK/runs (and the data, where WORK has none)
     python -m benchmarks.lifelong_carry diff CARRY DATA  # a dataset made again here against the carried one
 
@@ -29,6 +30,7 @@ import argparse
 import hashlib
 import json
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -110,12 +112,13 @@ def unpack_dataset(source: Path, files: dict[str, str], dataset: Path) -> None:
     staging.rename(dataset)
 
 
-def unfinished(work: Path) -> list[Path]:
-    """WORK's run folders whose results are not complete."""
+def unfinished(work: Path, also: Sequence[str] = ()) -> list[Path]:
+    """WORK's run folders whose results are not complete, and those named in ``also`` (finished
+    runs something still needs: their newest checkpoint goes with them)."""
     runs = []
     for run in sorted(p for p in (work / "runs").iterdir() if (p / "config.json").is_file()):
         results = run / "results.json"
-        if not (results.is_file() and json.loads(results.read_text()).get("complete")):
+        if run.name in also or not (results.is_file() and json.loads(results.read_text()).get("complete")):
             runs.append(run)
     return runs
 
@@ -145,13 +148,14 @@ def _slim(source: Path, target: Path) -> None:
         shutil.copy2(source, target)
 
 
-def carry_out(work: Path, carry: Path) -> dict[str, Any]:
-    """Copy what each unfinished run of ``work`` needs into ``carry``; returns the manifest."""
+def carry_out(work: Path, carry: Path, also: Sequence[str] = ()) -> dict[str, Any]:
+    """Copy what each unfinished run of ``work`` (and each finished one named in ``also``) needs
+    into ``carry``; returns the manifest."""
     if carry.exists():
         shutil.rmtree(carry)
     carry.mkdir(parents=True)
     manifest: dict[str, Any] = {"format": FORMAT, "data": {}, "dataset_files": {}, "runs": {}}
-    for run in unfinished(work):
+    for run in unfinished(work, also):
         files: dict[str, str] = {}
         for rel in carried_files(run):
             target = carry / run.name / rel
@@ -307,6 +311,9 @@ def main() -> None:
     out = sub.add_parser("out", help="pack WORK's unfinished runs into CARRY (replacing what it held)")
     out.add_argument("work", type=Path)
     out.add_argument("carry", type=Path)
+    out.add_argument(
+        "--also", action="append", default=[], metavar="RUN", help="a finished run to carry too (repeatable)"
+    )
     back = sub.add_parser("in", help="put CARRY's runs back into WORK/runs")
     back.add_argument("carry", type=Path)
     back.add_argument("work", type=Path)
@@ -319,7 +326,7 @@ def main() -> None:
     if args.direction == "diff":
         print("\n".join(diff(args.carry, args.dataset)))
     elif args.direction == "out":
-        manifest = carry_out(args.work, args.carry)
+        manifest = carry_out(args.work, args.carry, args.also)
         size = sum(p.stat().st_size for p in args.carry.rglob("*") if p.is_file())
         print(f"carried {', '.join(manifest['runs']) or 'no run'} into {args.carry} ({size / 1e6:.1f} MB)")
     else:

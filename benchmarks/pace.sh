@@ -20,6 +20,12 @@
 #         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
 # report  The runs' reports, the standard evaluations' table and the paired comparisons of the two
 #         tasks before and after, into benchmarks/results/pace/.
+# carry-out  pack WORK's unfinished runs, and the finished ones not evaluated yet (their final
+#         checkpoint), with the datasets they learn from, into CARRY (default
+#         benchmarks/results/pace/carry, to commit; benchmarks/lifelong_carry.py): a session's
+#         machine may keep only the repository, and this takes several sessions (~7 h of 2 cores:
+#         7 datasets of ~20 min, 7 trainings of 33-113 min two at a time, 7 evaluations of ~10 min).
+# carry-in   put them back into WORK; then run the part again.
 #
 # Data as benchmarks/quick_suites.sh makes it: 64x64, `fast` images, LIBERO's placement sampler with
 # the stored states' arm noise (no stored init state: the evaluation's starts are unseen), seed 0.
@@ -30,7 +36,10 @@ cd "$(dirname "$0")/.."
 repo=$(pwd)
 work="${1:-../pace-work}"
 part="${2:-all}"
-case "$part" in before | after | eval | report | all) ;; *) echo "pace.sh: PART must be before, after, eval, report or all, not '$part'" >&2; exit 2 ;; esac
+case "$part" in
+  before | after | eval | report | all | carry-out | carry-in) ;;
+  *) echo "pace.sh: PART must be before, after, eval, report, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
+esac
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
 results=benchmarks/results/pace
@@ -44,6 +53,21 @@ BEFORE=d9e2855
 before=(before-goal-3:libero_goal:3:300 before-spatial-7:libero_spatial:7:220)
 after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220 after-long-0:libero_10:0:520
   after-spatial-8:libero_spatial:8:220 after-goal-1:libero_goal:1:300)
+
+carry=${CARRY:-$results/carry}
+if [[ $part == carry-out ]]; then
+  also=()
+  for entry in "${before[@]}" "${after[@]}"; do  # finished, not evaluated yet: its checkpoint goes too
+    name=${entry%%:*}
+    [[ -d $work/runs/$name && ! -f $work/standard/$name/report.json ]] && also+=(--also "$name")
+  done
+  .venv/bin/python -m benchmarks.lifelong_carry out "$work" "$carry" "${also[@]}"
+  exit
+fi
+if [[ $part == carry-in ]]; then
+  .venv/bin/python -m benchmarks.lifelong_carry in "$carry" "$work"
+  exit
+fi
 
 generate() {  # name suite task: the dataset WORK/<name>-64
   local name=$1 suite=$2 index=$3

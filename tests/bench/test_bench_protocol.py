@@ -335,6 +335,33 @@ def test_a_carried_run_refuses_other_data(tiny_dataset: Path, tmp_path: Path) ->
     assert not list((work / "runs").iterdir())  # nothing half put back
 
 
+def test_a_finished_run_is_carried_only_when_named(tiny_dataset: Path, tmp_path: Path) -> None:
+    # benchmarks/pace.sh evaluates a run after it finished: until then its final checkpoint travels.
+    from benchmarks.lifelong_carry import carry_in, carry_out
+    from libero_bench.runs.saved_policy import CHECKPOINT
+    from libero_bench.runs.state_files import save_state
+
+    work = tmp_path / "work"
+    shutil.copytree(tiny_dataset, work / "data")
+    run = work / "runs" / "done"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "config.json").write_text(json.dumps({"data": "../../data"}))
+    (run / "results.json").write_text(json.dumps({"complete": True, "rollouts": []}))
+    for task in range(2):
+        save_state(run / "checkpoints" / f"task_00{task}.safetensors", {"task": task}, kind=CHECKPOINT)
+    final = (run / "checkpoints" / "task_001.safetensors").read_bytes()
+    assert carry_out(work, tmp_path / "carry")["runs"] == {}
+    manifest = carry_out(work, tmp_path / "carry", also=["done"])
+    assert set(manifest["runs"]["done"]["files"]) == {
+        "config.json",
+        "results.json",
+        "checkpoints/task_001.safetensors",
+    }
+    shutil.rmtree(work)
+    assert carry_in(tmp_path / "carry", work) == ["done"]
+    assert (work / "runs" / "done" / "checkpoints" / "task_001.safetensors").read_bytes() == final
+
+
 def test_a_carried_run_brings_its_dataset_to_a_machine_that_has_none(
     tiny_dataset: Path, tmp_path: Path
 ) -> None:
