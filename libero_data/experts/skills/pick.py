@@ -147,7 +147,8 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
     grasp = _leaning_back(ctx, _within_wrist(ctx, grasp))
     label = lambda phase: "regrasp" if ctx.notes.get("regrasp") else phase  # noqa: E731
     ctx.phase = label("approach")
-    above = grasp.pos - grasp.mat[:, 2] * (0.08 + ctx.jitter(0.02) + 0.02)
+    rise = 0.08 + ctx.jitter(0.02) + 0.02
+    above = grasp.pos - grasp.mat[:, 2] * rise
     ctx.motion.gripper = OPEN
     # Rise first when low, so the hand does not sweep through nearby objects.
     here = scene.eef_pos()
@@ -168,6 +169,14 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
         yield from lift(ctx, clear)
         yield from ctx.motion.move(np.array([above[0], above[1], clear]), grasp.mat, tol=0.015, max_steps=150)
     yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
+    if _elbow_at_stop(ctx):
+        # Beyond TOO_CLOSE's reach but still too close for this table's height: the arm would
+        # hold the object and fail to lift it (the hand drags it along the table instead).
+        leaned = _leaning_back(ctx, grasp, close=True)
+        if leaned is not grasp:
+            grasp = leaned
+            above = grasp.pos - grasp.mat[:, 2] * rise
+            yield from ctx.motion.move(above, grasp.mat, tol=0.01, max_steps=150)
     ctx.phase = label("descend")
     if grasp.opening < MAX_OPENING:
         yield from ctx.motion.preshape(grasp.opening, mat=grasp.mat)
@@ -207,6 +216,12 @@ def _attempt(ctx: Context, obj: str, grasp) -> Actions:
 TOO_CLOSE = 0.275
 #: How far the hand leans back toward the robot then (the wrist moves out, the elbow opens).
 LEAN_BACK = np.deg2rad(25.0)
+#: The elbow's (robot0_joint4's) least distance from its folded stop (rad) with the hand above
+#: a top-down grasp, below which the grasp leans back too. On a low table a grip beyond
+#: TOO_CLOSE can still need the elbow folded to its stop: on LIBERO-PRO's libero_10_swap/0 a
+#: soup can 0.30-0.33 m from the shoulder left 0.05-0.11 rad, was held, and could not be lifted
+#: (the hand slid toward the robot dragging it). Elsewhere the slack stays above 0.15.
+ELBOW_ROOM = 0.15
 
 
 #: Last arm joint angle (rad) a grasp may leave the wrist at; its stop is at 2.90. Holding
@@ -229,15 +244,25 @@ def _within_wrist(ctx: Context, grasp):
     return replace(grasp, yaw=yaw, mat=top_down(yaw))
 
 
-def _leaning_back(ctx: Context, grasp):
-    """The grasp, its hand tilted about the closing axis toward the robot if it is too close.
+def _elbow_at_stop(ctx: Context) -> bool:
+    """Whether the elbow is within ``ELBOW_ROOM`` of its folded stop."""
+    elbow = ctx.scene.joint("robot0_joint4")
+    return elbow.qpos - elbow.range[0] < ELBOW_ROOM
+
+
+def _leaning_back(ctx: Context, grasp, close: bool = False):
+    """The grasp, its hand tilted about the closing axis toward the robot if it is too close
+    (nearer the shoulder than ``TOO_CLOSE``, or ``close`` said so by the arm's elbow).
 
     Only the tilt component across the closing axis helps; fingers closing toward the robot
-    are not tilted (they would no longer face the object's sides).
+    are not tilted (they would no longer face the object's sides). A grasp already tilted
+    is returned as it is.
     """
     to_robot = ctx.scene.shoulder_pos()[:2] - grasp.pos[:2]
     distance = float(np.linalg.norm(to_robot))
-    if distance >= TOO_CLOSE:
+    if distance >= TOO_CLOSE and not close:
+        return grasp
+    if close and grasp.mat[2, 2] > -0.999:  # its approach is not straight down
         return grasp
     closing = grasp.mat[:, 0]
     across = np.array([*to_robot, 0.0]) / max(distance, 1e-9)
