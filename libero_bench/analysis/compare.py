@@ -202,6 +202,14 @@ def metric_line(name: str, row: Mapping[str, Any], a: str = "A", b: str = "B") -
     )
 
 
+def success_cells(row: Mapping[str, Any]) -> str:
+    """'n | A | B | only A | only B | p' of a paired success row, for a Markdown table."""
+    return (
+        f"{row['n']} | {row['a']['successes']} | {row['b']['successes']} | "
+        f"{row['only_a']} | {row['only_b']} | {row['p_value']:.3g}"
+    )
+
+
 def comparison_markdown(result: Mapping[str, Any]) -> str:
     """The comparison as a Markdown table, one row per task and kind of start."""
     a, b = result["a"]["label"] + " (A)", result["b"]["label"] + " (B)"
@@ -218,10 +226,7 @@ def comparison_markdown(result: Mapping[str, Any]) -> str:
         if block is None:
             continue
         for name, row in [*block["tasks"].items(), ("all tasks", block["all"])]:
-            lines.append(
-                f"| {start} | {name} | {row['n']} | {row['a']['successes']} | {row['b']['successes']} | "
-                f"{row['only_a']} | {row['only_b']} | {row['p_value']:.3g} | {verdict(row, 'A', 'B')} |"
-            )
+            lines.append(f"| {start} | {name} | {success_cells(row)} | {verdict(row, 'A', 'B')} |")
     rows = [(start, result[start]["difference"]) for start in STARTS if result.get(start)]
     rows = [(start, d) for start, d in rows if d and d["metrics"]]
     if rows:

@@ -29,7 +29,14 @@ from typing import Any
 
 import numpy as np
 
-from libero_bench.analysis.compare import ALPHA, Paired, final_outcomes, metric_verdict, pair
+from libero_bench.analysis.compare import (
+    ALPHA,
+    Paired,
+    final_outcomes,
+    metric_verdict,
+    pair,
+    success_cells,
+)
 from libero_bench.runs.folder import STARTS
 from libero_bench.runs.intervals import DRAWS, METRICS, SEED, RunDraws, interval, permutation_p, swap_null
 from libero_bench.runs.summary import RunSummary, load_run
@@ -184,10 +191,7 @@ def seeds_markdown(result: Mapping[str, Any]) -> str:
         rows = [*block["tasks"].items(), ("all tasks", block["all"])]
         rows += [(f"all tasks, seed {s}", row) for s, row in block["by_seed"].items()]
         for name, row in rows:
-            lines.append(
-                f"| {start} | {name} | {row['n']} | {row['a']['successes']} | {row['b']['successes']} | "
-                f"{row['only_a']} | {row['only_b']} | {row['p_value']:.3g} |"
-            )
+            lines.append(f"| {start} | {name} | {success_cells(row)} |")
     blocks = [(s, result[s]["difference"]) for s in STARTS if result.get(s) and result[s]["difference"]]
     if blocks:
         lines += [
