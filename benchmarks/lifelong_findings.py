@@ -166,8 +166,8 @@ def _claim_row(claim: Claim, compared: dict[str, dict[str, Any]], start: str) ->
         "metric": claim.metric,
         "tested": False,
     }
-    result = compared.get(f"{claim.subject}-vs-{claim.other}")
-    block = (result or {}).get(start)
+    result = compared.get(f"{claim.subject}-vs-{claim.other}", {})
+    block = result.get(start)
     metric = ((block or {}).get("difference") or {}).get("metrics", {}).get(claim.metric)
     if metric is None:
         return row
@@ -175,7 +175,7 @@ def _claim_row(claim: Claim, compared: dict[str, dict[str, Any]], start: str) ->
     went = metric["difference"] != 0 and (claim.higher is None or (metric["difference"] > 0) == claim.higher)
     row.update(
         tested=True,
-        seeds=result["seeds"] if result else [],
+        seeds=result["seeds"],
         claimed=claimed,
         subject_value=metric["a"],
         other_value=metric["b"],

@@ -24,6 +24,7 @@ from benchmarks.lifelong_findings import (
     ALGOS,
     ALPHA,
     FINDINGS,
+    POLICIES,
     POLICY_IDS,
     comparisons,
     display,
@@ -43,9 +44,7 @@ PAPER = {
 }
 NAMES = ALGO_NAMES
 #: The policy's name in a table row, where it is not the quick preset's ResNet-T.
-POLICY_NAMES = {
-    policy: name for name, policy in zip(("", "ResNet-RNN", "ViT-T"), POLICY_IDS.values(), strict=True)
-}
+POLICY_NAMES = {POLICY_IDS[suffix]: name for suffix, name in POLICIES.items() if suffix}
 
 
 def _value(x: float | None) -> str:
