@@ -14,8 +14,9 @@ so far (0.8 MB of shard and 0.8 MB of Rerun recording each: 200 MB a run); their
 ``results.json``, and the run's joined rollout dataset names them as left behind
 (``RUN/.work/left_behind.json``).
 
-The datasets the runs learn from are carried too (``CARRY/datasets/<name>/``: card, ``meta/``,
-``data/``, ``videos/``; not the MCAP logs), because making them again does not give the same bytes
+The datasets the unfinished runs learn from are carried too (``CARRY/datasets/<name>/``: card,
+``meta/``, ``data/``, ``videos/``; not the MCAP logs; a finished run, carried to be evaluated, needs
+only its checkpoint), because making them again does not give the same bytes
 on another machine: the 300 episodes of libero_object 0, 1, 2 made on an Intel Xeon and again on an
 AMD EPYC, same command, seed and code, had other digests (each machine made the same bytes twice).
 Git stores a file's bytes once, so the dataset costs the history its size (~100 MB at 64x64) once,
@@ -112,15 +113,17 @@ def unpack_dataset(source: Path, files: dict[str, str], dataset: Path) -> None:
     staging.rename(dataset)
 
 
+def complete(run: Path) -> bool:
+    """Whether ``run`` has learned all its tasks and made its evaluations (``results.json``)."""
+    results = run / "results.json"
+    return results.is_file() and bool(json.loads(results.read_text()).get("complete"))
+
+
 def unfinished(work: Path, also: Sequence[str] = ()) -> list[Path]:
     """WORK's run folders whose results are not complete, and those named in ``also`` (finished
     runs something still needs: their newest checkpoint goes with them)."""
-    runs = []
-    for run in sorted(p for p in (work / "runs").iterdir() if (p / "config.json").is_file()):
-        results = run / "results.json"
-        if run.name in also or not (results.is_file() and json.loads(results.read_text()).get("complete")):
-            runs.append(run)
-    return runs
+    runs = sorted(p for p in (work / "runs").iterdir() if (p / "config.json").is_file())
+    return [run for run in runs if run.name in also or not complete(run)]
 
 
 def carried_files(run: Path) -> list[Path]:
@@ -165,8 +168,8 @@ def carry_out(work: Path, carry: Path, also: Sequence[str] = ()) -> dict[str, An
             else:
                 shutil.copy2(run / rel, target)
             files[rel.as_posix()] = sha256(target)
-        datasets = {}
-        for dataset in run_datasets(run):
+        datasets = {}  # a finished run is evaluated from its checkpoint: it needs no dataset
+        for dataset in [] if complete(run) else run_datasets(run):
             key = dataset.name
             if key not in manifest["data"]:
                 manifest["data"][key] = data_digest(dataset)
@@ -193,7 +196,7 @@ def _stage(source: Path, staging: Path, entry: dict[str, Any], carried: dict[str
     )
     (staging / ".work").mkdir(exist_ok=True)  # the rollouts made so far stayed behind: RunFolder.left_behind
     (staging / ".work" / "left_behind.json").write_text(json.dumps(sorted(recorded)) + "\n")
-    for dataset in run_datasets(staging):
+    for dataset in [] if complete(staging) else run_datasets(staging):
         want = entry["datasets"].get(dataset.name)
         if not dataset.exists() and dataset.name in carried:
             unpack_dataset(source.parent / "datasets" / dataset.name, carried[dataset.name], dataset)

@@ -336,7 +336,8 @@ def test_a_carried_run_refuses_other_data(tiny_dataset: Path, tmp_path: Path) ->
 
 
 def test_a_finished_run_is_carried_only_when_named(tiny_dataset: Path, tmp_path: Path) -> None:
-    # benchmarks/pace.sh evaluates a run after it finished: until then its final checkpoint travels.
+    # benchmarks/pace.sh evaluates a run after it finished: until then its final checkpoint travels
+    # (not its dataset: evaluation does not read it).
     from benchmarks.lifelong_carry import carry_in, carry_out
     from libero_bench.runs.saved_policy import CHECKPOINT
     from libero_bench.runs.state_files import save_state
@@ -357,6 +358,7 @@ def test_a_finished_run_is_carried_only_when_named(tiny_dataset: Path, tmp_path:
         "results.json",
         "checkpoints/task_001.safetensors",
     }
+    assert manifest["data"] == {} and manifest["runs"]["done"]["datasets"] == {}  # evaluation needs none
     shutil.rmtree(work)
     assert carry_in(tmp_path / "carry", work) == ["done"]
     assert (work / "runs" / "done" / "checkpoints" / "task_001.safetensors").read_bytes() == final
