@@ -20,8 +20,8 @@
 #         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
 # report  The runs' reports, the standard evaluations' table and the paired comparisons of the two
 #         tasks before and after, into benchmarks/results/pace/.
-# carry-out  pack WORK's unfinished runs, and the finished ones not evaluated yet (their final
-#         checkpoint), with the datasets they learn from, into CARRY (default
+# carry-out  pack WORK's unfinished runs with the datasets they learn from, and the finished ones
+#         not evaluated yet (their final checkpoint, no dataset), into CARRY (default
 #         benchmarks/results/pace/carry, to commit; benchmarks/lifelong_carry.py): a session's
 #         machine may keep only the repository, and this takes several sessions (~7 h of 2 cores:
 #         7 datasets of ~20 min, 7 trainings of 33-113 min two at a time, 7 evaluations of ~10 min).
