@@ -94,6 +94,10 @@ learn() {  # entries...: each task's data, then its run (two at a time)
   local pids=() entry name suite index limit failed=0
   for entry in "$@"; do
     IFS=: read -r name suite index limit <<<"$entry"
+    if grep -qs '"complete": true' "$work/runs/$name/results.json"; then
+      echo "$name: finished (its data is not made again)"  # e.g. carried in without its dataset
+      continue
+    fi
     generate "$name" "$suite" "$index"
     while (($(jobs -rp | wc -l) >= 2)); do wait -n || true; done
     train "$name" "$index" "$limit" &
