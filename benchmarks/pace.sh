@@ -69,6 +69,10 @@ if [[ $part == carry-in ]]; then
   exit
 fi
 
+finished() {  # run folder: whether it has learned and made its own evaluation (results.json)
+  .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
+sys.exit(not complete(pathlib.Path(sys.argv[1])))' "$1"
+}
 generate() {  # name suite task: the dataset WORK/<name>-64
   local name=$1 suite=$2 index=$3
   if [[ $name == before-* ]]; then
@@ -94,7 +98,7 @@ learn() {  # entries...: each task's data, then its run (two at a time)
   local pids=() entry name suite index limit failed=0
   for entry in "$@"; do
     IFS=: read -r name suite index limit <<<"$entry"
-    if grep -qs '"complete": true' "$work/runs/$name/results.json"; then
+    if finished "$work/runs/$name"; then
       echo "$name: finished (its data is not made again)"  # e.g. carried in without its dataset
       continue
     fi
