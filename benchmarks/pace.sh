@@ -20,9 +20,10 @@
 #         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
 # report  The runs' reports, the standard evaluations' table and the paired comparisons of the two
 #         tasks before and after, into benchmarks/results/pace/.
-# carry-out  pack WORK's unfinished runs with the datasets they learn from, and the finished ones
-#         not evaluated yet (their final checkpoint, no dataset), into CARRY (default
-#         benchmarks/results/pace/carry, to commit; benchmarks/lifelong_carry.py): a session's
+# carry-out  pack WORK's unfinished runs with the datasets they learn from, the finished ones (their
+#         final checkpoint, 1.8 MB, no dataset) and the standard evaluations made (their JSON and
+#         report) into CARRY (default benchmarks/results/pace/carry, to commit;
+#         benchmarks/lifelong_carry.py): a session's
 #         machine may keep only the repository, and this takes several sessions (~7 h of 2 cores:
 #         7 datasets of ~20 min, 7 trainings of 33-113 min two at a time, 7 evaluations of ~10 min).
 # carry-in   put them back into WORK; then run the part again.
@@ -54,25 +55,45 @@ before=(before-goal-3:libero_goal:3:300 before-spatial-7:libero_spatial:7:220)
 after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220 after-long-0:libero_10:0:520
   after-spatial-8:libero_spatial:8:220 after-goal-1:libero_goal:1:300)
 
-carry=${CARRY:-$results/carry}
-if [[ $part == carry-out ]]; then
-  also=()
-  for entry in "${before[@]}" "${after[@]}"; do  # finished, not evaluated yet: its checkpoint goes too
-    name=${entry%%:*}
-    [[ -d $work/runs/$name && ! -f $work/standard/$name/report.json ]] && also+=(--also "$name")
-  done
-  .venv/bin/python -m benchmarks.lifelong_carry out "$work" "$carry" "${also[@]}"
-  exit
-fi
-if [[ $part == carry-in ]]; then
-  .venv/bin/python -m benchmarks.lifelong_carry in "$carry" "$work"
-  exit
-fi
-
 finished() {  # run folder: whether it has learned and made its own evaluation (results.json)
   .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
 sys.exit(not complete(pathlib.Path(sys.argv[1])))' "$1"
 }
+#: what of a standard evaluation the report reads (its rollouts' recordings stay behind)
+evaluation=(config.json results.json report.json report.md)
+
+carry=${CARRY:-$results/carry}
+if [[ $part == carry-out ]]; then
+  also=()
+  for entry in "${before[@]}" "${after[@]}"; do  # finished: its checkpoint and results go too
+    name=${entry%%:*}
+    if [[ -d $work/runs/$name ]] && finished "$work/runs/$name"; then also+=(--also "$name"); fi
+  done
+  .venv/bin/python -m benchmarks.lifelong_carry out "$work" "$carry" "${also[@]}"
+  for entry in "${before[@]}" "${after[@]}"; do
+    name=${entry%%:*}
+    if [[ -f $work/standard/$name/report.json ]]; then
+      mkdir -p "$carry/standard/$name"
+      for f in "${evaluation[@]}"; do cp "$work/standard/$name/$f" "$carry/standard/$name/"; done
+    fi
+  done
+  exit
+fi
+if [[ $part == carry-in ]]; then
+  .venv/bin/python -m benchmarks.lifelong_carry in "$carry" "$work"
+  for folder in "$carry"/standard/*/; do
+    [[ -d $folder ]] || continue
+    name=$(basename "$folder")
+    if [[ -e $work/standard/$name ]]; then
+      echo "$work/standard/$name is here already: left as it is"
+    else
+      mkdir -p "$work/standard"
+      cp -r "$folder" "$work/standard/$name"
+    fi
+  done
+  exit
+fi
+
 generate() {  # name suite task: the dataset WORK/<name>-64
   local name=$1 suite=$2 index=$3
   if [[ $name == before-* ]]; then
@@ -114,6 +135,10 @@ standard() {  # entries...: each run under the standard protocol
   local entry name suite index limit
   for entry in "$@"; do
     IFS=: read -r name suite index limit <<<"$entry"
+    if [[ -f $work/standard/$name/report.json ]]; then
+      echo "$name: evaluated already ($work/standard/$name)"
+      continue
+    fi
     $lb eval "$work/runs/$name" --protocol standard --trials 20 --tasks "$suite/$index" --workers 2 \
       --out "$work/standard/$name"
   done
@@ -133,7 +158,7 @@ if [[ $part == report || $part == all ]]; then
     runs+=("$work/runs/$name")
     mkdir -p "$results/runs/$name" "$results/standard/$name"
     cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
-    cp "$work/standard/$name"/{report.md,report.json,results.json} "$results/standard/$name/"
+    for f in "${evaluation[@]}"; do cp "$work/standard/$name/$f" "$results/standard/$name/"; done
   done
   $lb report "${runs[@]}" --out "$results/report"
   for task in goal-3 spatial-7; do

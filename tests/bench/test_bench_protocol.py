@@ -336,8 +336,8 @@ def test_a_carried_run_refuses_other_data(tiny_dataset: Path, tmp_path: Path) ->
 
 
 def test_a_finished_run_is_carried_only_when_named(tiny_dataset: Path, tmp_path: Path) -> None:
-    # benchmarks/pace.sh evaluates a run after it finished: until then its final checkpoint travels
-    # (not its dataset: evaluation does not read it).
+    # benchmarks/pace.sh names its finished runs: their final checkpoint and results travel, to be
+    # evaluated and reported on (not their dataset: neither reads it).
     from benchmarks.lifelong_carry import carry_in, carry_out
     from libero_bench.runs.saved_policy import CHECKPOINT
     from libero_bench.runs.state_files import save_state
