@@ -113,6 +113,24 @@ def unpack_dataset(source: Path, files: dict[str, str], dataset: Path) -> None:
     staging.rename(dataset)
 
 
+def portable_copy(source: Path, target: Path, work: Path) -> None:
+    """Copy a text file of ``work`` (an evaluation's JSON or report) to ``target``, naming the paths
+    of ``work`` relative to the file's folder there (they resolve again once carried back) and the
+    installed packages' files from their package (``libero/libero/bddl_files/...``), not by this
+    machine's absolute paths."""
+    import os
+    import re
+
+    work, folder = work.resolve(), source.resolve().parent
+
+    def relative(match: re.Match[str]) -> str:
+        return os.path.relpath(os.path.normpath(match.group(0)), folder)
+
+    text = re.sub(re.escape(str(work)) + r"""[^"`\s]*""", relative, source.read_text())
+    text = re.sub(r"""[^"`\s]*/site-packages/""", "", text)
+    target.write_text(text)
+
+
 def complete(run: Path) -> bool:
     """Whether ``run`` has learned all its tasks and made its evaluations (``results.json``)."""
     results = run / "results.json"

@@ -59,6 +59,10 @@ finished() {  # run folder: whether it has learned and made its own evaluation (
   .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
 sys.exit(not complete(pathlib.Path(sys.argv[1])))' "$1"
 }
+portable() {  # source target: a copy naming WORK's paths relative to the file's folder (lifelong_carry)
+  .venv/bin/python -c 'import sys; from pathlib import Path; from benchmarks.lifelong_carry import portable_copy
+portable_copy(*map(Path, sys.argv[1:]))' "$1" "$2" "$work"
+}
 #: what of a standard evaluation the report reads (its rollouts' recordings stay behind)
 evaluation=(config.json results.json report.json report.md)
 
@@ -74,7 +78,7 @@ if [[ $part == carry-out ]]; then
     name=${entry%%:*}
     if [[ -f $work/standard/$name/report.json ]]; then
       mkdir -p "$carry/standard/$name"
-      for f in "${evaluation[@]}"; do cp "$work/standard/$name/$f" "$carry/standard/$name/"; done
+      for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$carry/standard/$name/$f"; done
     fi
   done
   exit
@@ -158,7 +162,7 @@ if [[ $part == report || $part == all ]]; then
     runs+=("$work/runs/$name")
     mkdir -p "$results/runs/$name" "$results/standard/$name"
     cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
-    for f in "${evaluation[@]}"; do cp "$work/standard/$name/$f" "$results/standard/$name/"; done
+    for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$results/standard/$name/$f"; done
   done
   $lb report "${runs[@]}" --out "$results/report"
   for task in goal-3 spatial-7; do

@@ -455,3 +455,23 @@ def test_the_rollout_join_goes_without_the_rollouts_a_carried_run_left_behind(
     session.folder.left_behind.write_text(json.dumps(["a", "b"]))  # carried from another machine
     assert session.join({"run": "r"}, {}) == 1
     assert built == {"shards": ["c"], "meta": {"run": "r", "rollouts_left_behind": ["a", "b"]}}
+
+
+def test_a_carried_evaluation_names_no_path_of_the_machine(tmp_path: Path) -> None:
+    # benchmarks/pace.sh commits standard evaluations: their paths must resolve on another machine.
+    from benchmarks.lifelong_carry import portable_copy
+
+    work = tmp_path / "work"
+    (work / "standard" / "a").mkdir(parents=True)
+    bddl = "/opt/venv/lib/python3.12/site-packages/libero/libero/bddl_files/libero_goal/t.bddl"
+    config = {"run": str(work / "runs" / "a"), "data": f"{work}/runs/a/../../a-64", "bddl": bddl}
+    (work / "standard" / "a" / "config.json").write_text(json.dumps(config))
+    (work / "standard" / "a" / "report.md").write_text(f"Policy: `{work / 'runs' / 'a'}`.\n")
+    for name in ("config.json", "report.md"):
+        portable_copy(work / "standard" / "a" / name, tmp_path / name, work)
+    assert json.loads((tmp_path / "config.json").read_text()) == {
+        "run": "../../runs/a",
+        "data": "../../a-64",
+        "bddl": "libero/libero/bddl_files/libero_goal/t.bddl",
+    }
+    assert (tmp_path / "report.md").read_text() == "Policy: `../../runs/a`.\n"
