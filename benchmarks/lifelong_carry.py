@@ -113,20 +113,39 @@ def unpack_dataset(source: Path, files: dict[str, str], dataset: Path) -> None:
     staging.rename(dataset)
 
 
-def portable_copy(source: Path, target: Path, work: Path) -> None:
+def portable_copy(source: Path, target: Path, work: Path, moves: Sequence[tuple[Path, Path]] = ()) -> None:
     """Copy a text file of ``work`` (an evaluation's JSON or report) to ``target``, naming the paths
     of ``work`` relative to the file's folder there (they resolve again once carried back) and the
     installed packages' files from their package (``libero/libero/bddl_files/...``), not by this
-    machine's absolute paths."""
+    machine's absolute paths.
+
+    ``moves`` are (old, new) folders for a target laid out otherwise than the source: a path the file
+    names, absolute or relative to its folder, that lies in ``old`` is named as the same path in
+    ``new``, relative to the target's folder. A carry keeps a run at ``CARRY/<run>``, not at
+    ``WORK/runs/<run>``: its evaluation, carried to ``CARRY/standard/<run>``, still finds it, and
+    again once carried back in.
+    """
     import os
     import re
 
-    work, folder = work.resolve(), source.resolve().parent
+    work, folder, there = work.resolve(), source.resolve().parent, target.resolve().parent
+    moved = [(str(old.resolve()), str(new.resolve())) for old, new in moves]
 
-    def relative(match: re.Match[str]) -> str:
-        return os.path.relpath(os.path.normpath(match.group(0)), folder)
+    def place(path: str) -> str | None:
+        for old, new in moved:
+            if path == old or path.startswith(old + os.sep):
+                return os.path.relpath(new + path[len(old) :], there)
+        return None
 
-    text = re.sub(re.escape(str(work)) + r"""[^"`\s]*""", relative, source.read_text())
+    def rename(match: re.Match[str]) -> str:
+        if match.group("absolute"):
+            path = os.path.normpath(match.group("absolute"))
+            return place(path) or os.path.relpath(path, folder)
+        named = match.group("relative")
+        return place(os.path.normpath(os.path.join(folder, named))) or named
+
+    pattern = rf"""(?P<absolute>{re.escape(str(work))}[^"`\s]*)|(?<=["`])(?P<relative>\.\.?/[^"`\s]*)"""
+    text = re.sub(pattern, rename, source.read_text())
     text = re.sub(r"""[^"`\s]*/site-packages/""", "", text)
     target.write_text(text)
 

@@ -59,9 +59,11 @@ finished() {  # run folder: whether it has learned and made its own evaluation (
   .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
 sys.exit(not complete(pathlib.Path(sys.argv[1])))' "$1"
 }
-portable() {  # source target: a copy naming WORK's paths relative to the file's folder (lifelong_carry)
+portable() {  # source target [old new]...: a copy naming WORK's paths relative to the file's folder,
+  # a path in a folder OLD named as the same path in NEW (lifelong_carry.portable_copy)
   .venv/bin/python -c 'import sys; from pathlib import Path; from benchmarks.lifelong_carry import portable_copy
-portable_copy(*map(Path, sys.argv[1:]))' "$1" "$2" "$work"
+a = [Path(x) for x in sys.argv[1:]]
+portable_copy(a[0], a[1], a[2], list(zip(a[3::2], a[4::2])))' "$1" "$2" "$work" "${@:3}"
 }
 #: what of a standard evaluation the report reads (its rollouts' recordings stay behind)
 evaluation=(config.json results.json report.json report.md)
@@ -78,7 +80,9 @@ if [[ $part == carry-out ]]; then
     name=${entry%%:*}
     if [[ -f $work/standard/$name/report.json ]]; then
       mkdir -p "$carry/standard/$name"
-      for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$carry/standard/$name/$f"; done
+      for f in "${evaluation[@]}"; do  # the carry keeps the run at CARRY/<run>
+        portable "$work/standard/$name/$f" "$carry/standard/$name/$f" "$work/runs" "$carry"
+      done
     fi
   done
   exit
@@ -91,8 +95,10 @@ if [[ $part == carry-in ]]; then
     if [[ -e $work/standard/$name ]]; then
       echo "$work/standard/$name is here already: left as it is"
     else
-      mkdir -p "$work/standard"
-      cp -r "$folder" "$work/standard/$name"
+      mkdir -p "$work/standard/$name"
+      for f in "${evaluation[@]}"; do
+        portable "$folder/$f" "$work/standard/$name/$f" "$carry/$name" "$work/runs/$name"
+      done
     fi
   done
   exit

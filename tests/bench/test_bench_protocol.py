@@ -475,3 +475,26 @@ def test_a_carried_evaluation_names_no_path_of_the_machine(tmp_path: Path) -> No
         "bddl": "libero/libero/bddl_files/libero_goal/t.bddl",
     }
     assert (tmp_path / "report.md").read_text() == "Policy: `../../runs/a`.\n"
+
+
+def test_a_carried_evaluation_finds_its_run_in_the_carry_and_again_once_carried_back(
+    tmp_path: Path,
+) -> None:
+    # A carry keeps a run at CARRY/<run>, not at WORK/runs/<run>: the evaluation's paths follow it.
+    from benchmarks.lifelong_carry import portable_copy
+
+    work, carry, back = tmp_path / "work", tmp_path / "carry", tmp_path / "back"
+    for folder in (work / "standard" / "a", carry / "standard" / "a", back / "standard" / "a"):
+        folder.mkdir(parents=True)
+    (carry / "a").mkdir()
+    (back / "runs" / "a").mkdir(parents=True)
+    report = {"policy": str(work / "runs" / "a"), "data": str(work / "a-64")}
+    (work / "standard" / "a" / "report.json").write_text(json.dumps(report))
+    carried = carry / "standard" / "a" / "report.json"
+    portable_copy(work / "standard" / "a" / "report.json", carried, work, [(work / "runs", carry)])
+    assert json.loads(carried.read_text()) == {"policy": "../../a", "data": "../../a-64"}
+    assert (carried.parent / "../../a").is_dir()
+    returned = back / "standard" / "a" / "report.json"
+    portable_copy(carried, returned, back, [(carry / "a", back / "runs" / "a")])
+    assert json.loads(returned.read_text()) == {"policy": "../../runs/a", "data": "../../a-64"}
+    assert (returned.parent / "../../runs/a").is_dir()
