@@ -3,7 +3,7 @@
 # limits finish in time, where one trained on the expert's earlier, longer demonstrations runs out?
 #
 #   benchmarks/pace.sh [WORK_DIR] [PART]     (WORK_DIR default: ../pace-work beside the repository;
-#                                             PART: before, after, eval, report, or all, the default)
+#                                             PART: before, after, tail, eval, report, or all, the default)
 #
 # before  The expert as it was before issue 74 (git commit BEFORE, expert code aba7309349fc), checked
 #         out as a worktree in WORK_DIR/before-src and run from there: 100 demonstrations of each of
@@ -15,6 +15,9 @@
 # after   Today's expert: the same two tasks and the three on which the quick recipe missed 80% in
 #         RESULTS ("Quick on the other suites": libero_spatial/8, libero_goal/1, libero_10/0), each
 #         episode within its suite's standard limit (generate's default --max-length), same recipe.
+# tail    Today's expert on libero_spatial/7 again, with 10 steps recorded after the goal
+#         (`generate --after-goal 10`, as LIBERO's human demonstrations have): the policies trained on
+#         today's data stop over the plate with the bowl held, and a release was 3 frames of ~150.
 # eval    Every run evaluated under the standard protocol (openpi's LIBERO loop, the suite's own
 #         limit after the 10 waits: spatial 220, goal 300, libero_10 520) from stored init states
 #         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
@@ -38,8 +41,8 @@ repo=$(pwd)
 work="${1:-../pace-work}"
 part="${2:-all}"
 case "$part" in
-  before | after | eval | report | all | carry-out | carry-in) ;;
-  *) echo "pace.sh: PART must be before, after, eval, report, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
+  before | after | tail | eval | report | all | carry-out | carry-in) ;;
+  *) echo "pace.sh: PART must be before, after, tail, eval, report, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
 esac
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
@@ -54,6 +57,7 @@ BEFORE=d9e2855
 before=(before-goal-3:libero_goal:3:300 before-spatial-7:libero_spatial:7:220)
 after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220 after-long-0:libero_10:0:520
   after-spatial-8:libero_spatial:8:220 after-goal-1:libero_goal:1:300)
+tail=(tail-spatial-7:libero_spatial:7:220)
 
 finished() {  # run folder: whether it has learned and made its own evaluation (results.json)
   .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
@@ -71,12 +75,12 @@ evaluation=(config.json results.json report.json report.md)
 carry=${CARRY:-$results/carry}
 if [[ $part == carry-out ]]; then
   also=()
-  for entry in "${before[@]}" "${after[@]}"; do  # finished: its checkpoint and results go too
+  for entry in "${before[@]}" "${after[@]}" "${tail[@]}"; do  # finished: its checkpoint and results go too
     name=${entry%%:*}
     if [[ -d $work/runs/$name ]] && finished "$work/runs/$name"; then also+=(--also "$name"); fi
   done
   .venv/bin/python -m benchmarks.lifelong_carry out "$work" "$carry" "${also[@]}"
-  for entry in "${before[@]}" "${after[@]}"; do
+  for entry in "${before[@]}" "${after[@]}" "${tail[@]}"; do
     name=${entry%%:*}
     if [[ -f $work/standard/$name/report.json ]]; then
       mkdir -p "$carry/standard/$name"
@@ -115,8 +119,10 @@ generate() {  # name suite task: the dataset WORK/<name>-64
     (cd "$work/before-src" && PYTHONPATH="$work/before-src" $ld generate --suite "$suite" --tasks "$index" \
       --episodes-per-task 100 --image-size 64 --render-quality fast --workers 2 --seed 0 --out "$work/$name-64")
   else
+    local after=0
+    [[ $name == tail-* ]] && after=10
     $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 --image-size 64 \
-      --render-quality fast --workers 2 --seed 0 --out "$work/$name-64"
+      --render-quality fast --workers 2 --seed 0 --after-goal "$after" --out "$work/$name-64"
   fi
 }
 train() {  # name task limit
@@ -157,22 +163,31 @@ standard() {  # entries...: each run under the standard protocol
 case "$part" in
   before) learn "${before[@]}" ;;
   after) learn "${after[@]}" ;;
-  eval) standard "${before[@]}" "${after[@]}" ;;
-  all) learn "${before[@]}" && learn "${after[@]}" && standard "${before[@]}" "${after[@]}" ;;
+  tail) learn "${tail[@]}" ;;
+  eval) standard "${before[@]}" "${after[@]}" "${tail[@]}" ;;
+  all) learn "${before[@]}" && learn "${after[@]}" && learn "${tail[@]}" &&
+    standard "${before[@]}" "${after[@]}" "${tail[@]}" ;;
 esac
 if [[ $part == report || $part == all ]]; then
   mkdir -p "$results"
   runs=()
-  for entry in "${before[@]}" "${after[@]}"; do
+  for entry in "${before[@]}" "${after[@]}" "${tail[@]}"; do
     name=${entry%%:*}
+    if [[ ! -f $work/standard/$name/report.json ]]; then
+      echo "$name: not evaluated yet, left out of the report"
+      continue
+    fi
     runs+=("$work/runs/$name")
     mkdir -p "$results/runs/$name" "$results/standard/$name"
     cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
     for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$results/standard/$name/$f"; done
   done
   $lb report "${runs[@]}" --out "$results/report"
-  for task in goal-3 spatial-7; do
-    $lb compare "$work/runs/before-$task" "$work/runs/after-$task" --out "$results/compare-$task"
+  for pair in before-goal-3:after-goal-3 before-spatial-7:after-spatial-7 after-spatial-7:tail-spatial-7; do
+    a=${pair%%:*} b=${pair##*:}
+    if [[ -f $work/standard/$a/report.json && -f $work/standard/$b/report.json ]]; then
+      $lb compare "$work/runs/$a" "$work/runs/$b" --out "$results/compare-${b}"
+    fi
   done
   .venv/bin/python -m benchmarks.pace_report "$work" --out "$results"
   echo "reports in $results"

@@ -161,6 +161,17 @@ MaxLength = Annotated[
         "the bound and what it cost.",
     ),
 ]
+AfterGoal = Annotated[
+    int,
+    typer.Option(
+        "--after-goal",
+        help="Steps recorded after the goal is first reached, the arm held still and the gripper as it was (open "
+        "after a release): robosuite's and LIBERO's human collection records 10. Without them a release is the "
+        "last 3 frames of an episode. The goal must still hold after them; --max-length counts the steps to the goal.",
+        min=0,
+        max=100,
+    ),
+]
 RepoId = Annotated[
     str | None,
     typer.Option("--repo-id", help="Dataset id recorded in the metadata; default libero-data/<suite>."),
@@ -215,6 +226,7 @@ def generate_cmd(
     seed: Seed = 0,
     max_attempts: MaxAttempts = 8,
     max_length: MaxLength = "standard",
+    after_goal: AfterGoal = 0,
     repo_id: RepoId = None,
     publish_every: PublishEvery = 60.0,
     keep_work: KeepWork = False,
@@ -262,6 +274,7 @@ def generate_cmd(
         render_quality=render_quality,
         arm_noise=arm_noise,
         max_length=length_bound,
+        after_goal=after_goal,
         source=source or "",
     )
     if source:  # an unknown name, or a source that cannot make this request: one sentence now

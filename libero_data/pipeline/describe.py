@@ -21,6 +21,7 @@ from libero_data.pipeline.episodes import EpisodeDone
 from libero_data.pipeline.length_card import (
     LENGTH_PLOT,
     TaskLengths,
+    after_goal_words,
     bound_words,
     dataset_lengths,
     dataset_note,
@@ -85,6 +86,7 @@ def describe_dataset(
         "render quality": provenance.render_line(render),
         "attempts per episode (at most)": str(request.max_attempts),
         "length bound (steps)": bound_words(request, lengths),
+        "steps after the goal": after_goal_words(request),
         "fps": "20",
         "episode length (steps)": length_line([int(info["length"]) for info in infos], suite.name),
         "complete": "yes" if complete else "no (generation still running or interrupted)",

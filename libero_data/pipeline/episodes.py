@@ -62,12 +62,13 @@ class EpisodeDone:
     success: bool
     attempts: int
     too_long: int = 0  # attempts stopped at the length bound (EpisodeRecord.too_long)
-    length: int = 0  # the kept episode's steps (0: given up)
+    length: int = 0  # the kept episode's steps to its goal (0: given up)
 
 
 def done_event(slot: Slot, record: EpisodeRecord) -> EpisodeDone:
     """What is reported of a slot once its record (and a kept episode's shard) is on disk."""
     length = len(record.actions) if record.success and record.actions is not None else 0
+    length = record.goal_step or length  # the steps to the goal, not those recorded after it
     return EpisodeDone(slot.key, slot.k, record.success, record.attempts, record.too_long, length)
 
 
@@ -127,6 +128,8 @@ def episode_info(task: Any, slot: Slot, record: EpisodeRecord, gl: dict[str, str
         "machine": record.machine or UNKNOWN_MACHINE,
         "gl": gl,
         "success": True,  # the goal after the last action: rendering checks it
+        # Where steps were recorded after the goal (--after-goal): the steps to it.
+        **({"goal_step": int(record.goal_step)} if record.goal_step else {}),
         # Where its fixtures stood (a replay places them so before restoring its states), and
         # what its source tells of it (an import: the file, its checks).
         **({"fixtures": record.fixtures} if record.fixtures is not None else {}),

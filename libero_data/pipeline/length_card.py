@@ -75,12 +75,12 @@ def dataset_lengths(
             successes = [d.length for d in done if d.success]
         else:
             attempts = len(episodes)
-            successes = [int(i["length"]) for i in episodes if i.get("success", True)]
+            successes = [to_goal(i) for i in episodes if i.get("success", True)]
         rows.append(
             TaskLengths(
                 task=task,
                 limit=limit,
-                lengths=tuple(int(i["length"]) for i in episodes),
+                lengths=tuple(to_goal(i) for i in episodes),
                 within=sum(1 for n in successes if n <= limit),
                 bound=request.length_bound(task),
                 attempts=attempts,
@@ -90,6 +90,22 @@ def dataset_lengths(
             )
         )
     return rows
+
+
+def to_goal(info: Mapping[str, Any]) -> int:
+    """An episode's steps to its goal, what the standard limit and the length bound count: its
+    length, less the steps recorded after the goal (``--after-goal``: ``goal_step`` names it)."""
+    return int(info.get("goal_step") or info["length"])
+
+
+def after_goal_words(request: GenerateRequest) -> str:
+    """The card's settings row for the steps recorded after the goal."""
+    if not request.after_goal:
+        return "0: an episode ends at the step its goal is first reached"
+    return (
+        f"{request.after_goal} (`--after-goal {request.after_goal}`): the arm held still, the gripper as it was; "
+        "the goal still holds after them. Lengths against the limit and the bound count the steps to the goal"
+    )
 
 
 def report_lengths(

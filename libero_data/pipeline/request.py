@@ -76,9 +76,13 @@ class GenerateRequest(Config):
     #: limit) or None (no bound). A searched attempt still going at the bound is stopped there and
     #: counts as failed; sources that do not search keep their episodes (their cards count those over it).
     max_length: int | str | None = STANDARD
+    #: Steps recorded after the goal is first reached, the arm held still and the gripper as it was
+    #: (open after a release), as robosuite's and LIBERO's human collection records 10; the goal must
+    #: still hold after them. The length bound counts the steps to the goal, not these.
+    after_goal: int = 0
 
     #: Fields a request writes only when set: requests made before them read the same.
-    written_when_set: ClassVar[tuple[str, ...]] = ("rerender_of",)
+    written_when_set: ClassVar[tuple[str, ...]] = ("rerender_of", "after_goal")
 
     @classmethod
     def upgrade(cls, data: Any) -> dict[str, Any]:
@@ -93,13 +97,22 @@ class GenerateRequest(Config):
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
         for name in self.written_when_set:
-            if data.get(name) == "":
+            if data.get(name) in ("", 0):
                 del data[name]
         return data
 
     def __post_init__(self) -> None:
         check_arm_noise(self.arm_noise)
         check_max_length(self.max_length)
+        if (
+            isinstance(self.after_goal, bool)
+            or not isinstance(self.after_goal, int)
+            or not 0 <= self.after_goal <= 100
+        ):
+            raise InputError(
+                f"the steps recorded after the goal must be a whole number in 0..100, got {self.after_goal!r}",
+                field="after_goal",
+            )
         if self.episodes_per_task < 1:
             raise InputError(
                 f"episodes per task must be at least 1, got {self.episodes_per_task}",
@@ -188,6 +201,7 @@ def resolve_request(
     render_quality: str = "full",
     arm_noise: float = ARM_INIT_NOISE,
     max_length: int | str | None = STANDARD,
+    after_goal: int = 0,
     source: str = "",
 ) -> GenerateRequest:
     """Check the user's choices and turn task names/indices into suite indices."""
@@ -217,6 +231,7 @@ def resolve_request(
         render_quality=render_quality,
         arm_noise=float(arm_noise),
         max_length=max_length,
+        after_goal=after_goal,
         source=source,
     )
 

@@ -498,3 +498,24 @@ def test_a_carried_evaluation_finds_its_run_in_the_carry_and_again_once_carried_
     portable_copy(carried, returned, back, [(carry / "a", back / "runs" / "a")])
     assert json.loads(returned.read_text()) == {"policy": "../../runs/a", "data": "../../a-64"}
     assert (returned.parent / "../../runs/a").is_dir()
+
+
+def test_the_pace_report_tables_the_runs_evaluated_and_pairs_them_start_for_start(tmp_path: Path) -> None:
+    from benchmarks import pace_report
+
+    def evaluated(name: str, successes: list[bool]) -> None:
+        (tmp_path / "standard" / name).mkdir(parents=True)
+        rollouts = [{"init_index": i, "success": s} for i, s in enumerate(successes)]
+        (tmp_path / "standard" / name / "results.json").write_text(json.dumps({"rollouts": rollouts}))
+        (tmp_path / "runs" / name).mkdir(parents=True)
+        own = [{"epoch": 16, "start": "stored", "success": s} for s in successes]
+        (tmp_path / "runs" / name / "results.json").write_text(json.dumps({"rollouts": own}))
+
+    evaluated("before-spatial-7", [False, False, True, False])
+    evaluated("after-spatial-7", [True, False, True, True])
+    assert pace_report.main([str(tmp_path), "--out", str(tmp_path / "out")]) == 0
+    report = (tmp_path / "out" / "pace.md").read_text()
+    assert "| libero_goal/3 | today | `after-goal-3` | 300 | not evaluated yet | | |" in report
+    assert "| libero_spatial/7 | `before-spatial-7` | `after-spatial-7` | 1/4 | 3/4 | 0 | 2 | 0.5 |" in report
+    pairs = json.loads((tmp_path / "out" / "pace.json").read_text())["pairs"]
+    assert pairs == {"before-spatial-7 vs after-spatial-7": {"n": 4, "only_a": 0, "only_b": 2, "p": 0.5}}

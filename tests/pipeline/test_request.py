@@ -141,3 +141,22 @@ def test_the_cli_default_length_bound_is_the_standard_limit() -> None:
 
     default = inspect.signature(generate_cmd).parameters["max_length"].default
     assert parse_max_length(default) == GenerateRequest("libero_goal", (0,)).max_length == "standard"
+
+
+def test_steps_after_the_goal_are_checked_and_a_request_without_them_reads_as_before(tmp_path: Path) -> None:
+    # `--after-goal` is written only when set: a folder begun before it existed resumes unchanged.
+    assert "after_goal" not in GenerateRequest("libero_goal", (0,)).to_dict()
+    assert GenerateRequest("libero_goal", (0,), after_goal=10).to_dict()["after_goal"] == 10
+    assert GenerateRequest.from_dict(GenerateRequest("libero_goal", (0,)).to_dict()).after_goal == 0
+    for bad in (-1, 101, 2.5, True):
+        with pytest.raises(InputError) as error:
+            GenerateRequest("libero_goal", (0,), after_goal=bad)  # type: ignore[arg-type]
+        assert error.value.field == "after_goal"
+    (tmp_path / "request.json").write_text(json.dumps(GenerateRequest("libero_goal", (0,)).to_dict()))
+    folder = WorkFolder(tmp_path, "dataset")
+    with pytest.raises(SettingsChanged, match=r"\(after_goal\)"):
+        folder.claim(
+            GenerateRequest("libero_goal", (0,), after_goal=10).to_dict(),
+            name="request.json",
+            legacy=GenerateRequest.legacy,
+        )

@@ -65,6 +65,8 @@ class EpisodeRecord:
     details: dict[str, Any] = field(default_factory=dict)
     #: of the attempts, those stopped at the request's length bound (failed for being too long)
     too_long: int = 0
+    #: the steps to the goal where steps were recorded after it (0: the goal came at the last action)
+    goal_step: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """The saved form (the search record's keys; a given-up episode keeps only why)."""
@@ -86,6 +88,8 @@ class EpisodeRecord:
             if self.final_state is not None:
                 data["final_state"] = self.final_state
             data["plan"] = list(self.plan)
+            if self.goal_step:
+                data["goal_step"] = self.goal_step
         data["expert_code"] = self.code
         if self.machine is not None:
             data["machine"] = self.machine
@@ -115,6 +119,7 @@ class EpisodeRecord:
             fixtures=data.get("fixtures"),
             details=dict(data.get("imported", {})),
             too_long=int(data.get("too_long", 0)),
+            goal_step=int(data.get("goal_step", 0)),
         )
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:

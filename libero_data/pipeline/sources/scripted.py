@@ -15,7 +15,7 @@ from libero_data.sim.arm import ARM_INIT_NOISE
 from libero_data.tasks.plus import episode_owner
 
 if TYPE_CHECKING:
-    from libero_data.experts.expert import Expert
+    from libero_data.experts.expert import Episode, Expert
     from libero_data.pipeline.request import GenerateRequest, Slot
     from libero_data.runtime.jobs import WorkerCache
     from libero_data.sim import LiberoEnv
@@ -71,6 +71,13 @@ def search_slot(
             init_index, init = -1, None  # LIBERO's own placement sampler, from reset_seed
         episode = expert.run(init, reset_seed=reset_seed, seed=expert_seed)
         over = over_bound(episode.success, episode.length, bound)
+        goal_step = episode.length if request.after_goal else 0
+        if episode.success and over is None and request.after_goal:
+            kept = after_goal(env, episode, request.after_goal)
+            if kept is None:
+                failures.append(f"the goal did not hold for the {request.after_goal} steps after it")
+                continue
+            episode = kept
         if episode.success and over is None:
             return EpisodeRecord(
                 success=True,
@@ -86,6 +93,7 @@ def search_slot(
                 final_state=episode.final_state,
                 plan=tuple(episode.plan),
                 too_long=too_long,
+                goal_step=goal_step,
             )
         too_long += over is not None
         failures.append(over or episode.failure or "unknown")
@@ -96,6 +104,32 @@ def search_slot(
         code=code,
         machine=machine,
         too_long=too_long,
+    )
+
+
+def after_goal(env: LiberoEnv, episode: Episode, steps: int) -> Episode | None:
+    """``episode`` (just ended at its goal, ``env`` in its final state) with ``steps`` more steps:
+    the arm held where it is (no motion asked) and the gripper as the last action left it; None
+    where the goal no longer holds after them (an object still rolling off its target)."""
+    import dataclasses
+
+    import numpy as np
+
+    hold = np.zeros(episode.actions.shape[1], dtype=np.float32)
+    hold[-1] = episode.actions[-1, -1]
+    states = []
+    for _ in range(steps):
+        states.append(env.get_state())
+        env.advance(hold)
+    if not env.success():
+        return None
+    phases = {**episode.phases, "after the goal": steps}
+    return dataclasses.replace(
+        episode,
+        actions=np.concatenate([episode.actions, np.tile(hold, (steps, 1))]),
+        states=np.concatenate([episode.states, np.asarray(states, dtype=episode.states.dtype)]),
+        final_state=env.get_state(),
+        phases=phases,
     )
 
 
