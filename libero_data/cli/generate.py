@@ -28,6 +28,7 @@ from libero_data.cli.common import (
     use_plus,
     user_errors,
 )
+from libero_data.cli.episode_options import AfterGoal, MaxAttempts, MaxLength
 from libero_data.perturb.levels import KINDS, SCENE_KINDS  # the registry's kinds, for --help
 from libero_data.pipeline.sources import source_choices  # the registry's sources, for --help
 
@@ -143,33 +144,6 @@ ArmNoise = Annotated[
         "(datasets made before this option existed did).",
         min=0.0,
         max=0.5,
-    ),
-]
-MaxAttempts = Annotated[
-    int,
-    typer.Option("--max-attempts", help="Expert attempts per episode before the episode is given up.", min=1),
-]
-MaxLength = Annotated[
-    str,
-    typer.Option(
-        "--max-length",
-        metavar="N|standard|none",
-        help="Longest episode kept, in control steps: N, 'standard' (each task's standard evaluation limit: "
-        "openpi's step limit of its suite, libero_spatial 220, libero_object 280, libero_goal 300, libero_10 520, "
-        "libero_90 400; LIBERO-PRO/Plus suites and variants take their base suite's, procedural tasks 500) or "
-        "'none'. An attempt still going at the bound is stopped and counts as a failed attempt; the card states "
-        "the bound and what it cost.",
-    ),
-]
-AfterGoal = Annotated[
-    int,
-    typer.Option(
-        "--after-goal",
-        help="Steps recorded after the goal is first reached, the arm held still and the gripper as it was (open "
-        "after a release): robosuite's and LIBERO's human collection records 10. Without them a release is the "
-        "last 3 frames of an episode. The goal must still hold after them; --max-length counts the steps to the goal.",
-        min=0,
-        max=100,
     ),
 ]
 RepoId = Annotated[
