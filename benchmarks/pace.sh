@@ -87,6 +87,8 @@ if [[ $part == carry-out ]]; then
       for f in "${evaluation[@]}"; do  # the carry keeps the run at CARRY/<run>
         portable "$work/standard/$name/$f" "$carry/standard/$name/$f" "$work/runs" "$carry"
       done
+      ends=$work/standard/$name/failures_end.json  # benchmarks/pace_report.py: how its failures end
+      [[ -f $ends ]] && cp "$ends" "$carry/standard/$name/"
     fi
   done
   exit
@@ -103,6 +105,7 @@ if [[ $part == carry-in ]]; then
       for f in "${evaluation[@]}"; do
         portable "$folder/$f" "$work/standard/$name/$f" "$carry/$name" "$work/runs/$name"
       done
+      [[ -f $folder/failures_end.json ]] && cp "$folder/failures_end.json" "$work/standard/$name/"
     fi
   done
   exit

@@ -45,6 +45,43 @@ def standard_outcomes(folder: Path) -> dict[int, bool]:
     return {int(r["init_index"]): bool(r["success"]) for r in rollouts}
 
 
+#: A failure "stops" when its gripper moved less than this (m) over its last STILL_STEPS steps.
+STILL_METRES, STILL_STEPS = 0.03, 60
+
+
+def how_failures_end(folder: Path) -> dict[str, int] | None:
+    """Of a standard evaluation's failed rollouts (its rollout dataset, kept in WORK only): how many,
+    how many stopped (the gripper within STILL_METRES over the last STILL_STEPS steps), and how many
+    of those hold the gripper closed (their last 20 gripper actions close on average). Written to
+    ``failures_end.json`` beside the evaluation (``pace.sh carry-out`` carries it, not the rollouts)
+    and read from there where the rollouts are not here; None where neither is."""
+    import numpy as np
+    import pyarrow.parquet as pq
+
+    rollouts, summary = folder / "rollouts", folder / "failures_end.json"
+    files = sorted((rollouts / "data").glob("*/*.parquet"))
+    if not files:
+        return json.loads(summary.read_text()) if summary.is_file() else None
+    columns = ["action", "libero.eef_pose", "episode_index"]
+    table = pq.ParquetDataset(files).read(columns=columns).to_pydict()
+    episodes = np.asarray(table["episode_index"])
+    actions, poses = np.asarray(table["action"]), np.asarray(table["libero.eef_pose"])
+    rows = [
+        json.loads(line) for line in (rollouts / "meta" / "libero_episodes.jsonl").read_text().splitlines()
+    ]
+    failed = [r for r in rows if not r["success"]]
+    stopped = closed = 0
+    for row in failed:
+        mine = episodes == row["episode_index"]
+        path, gripper = poses[mine, :3], actions[mine, -1]
+        if len(path) >= STILL_STEPS and np.linalg.norm(path[-1] - path[-STILL_STEPS]) < STILL_METRES:
+            stopped += 1
+            closed += bool(gripper[-20:].mean() > 0)
+    ends = {"failures": len(failed), "stopped": stopped, "stopped_closed": closed}
+    write_text(summary, json.dumps(ends) + "\n")
+    return ends
+
+
 def run_outcomes(folder: Path) -> dict[str, tuple[int, int]]:
     """{kind of start: (successes, rollouts)} of a single-task run's final evaluation."""
     results = json.loads((folder / "results.json").read_text())
@@ -82,15 +119,30 @@ def main(argv: list[str] | None = None) -> int:
     outcomes: dict[str, dict[int, bool]] = {}
     for name, task, limit, data in RUNS:
         if not (args.work / "standard" / name / "results.json").is_file():
-            rows.append(f"| {task} | {data} | `{name}` | {limit} | not evaluated yet | | |")
+            rows.append(f"| {task} | {data} | `{name}` | {limit} | not evaluated yet | | | |")
             continue
         standard = standard_outcomes(args.work / "standard" / name)
         own = run_outcomes(args.work / "runs" / name)
         ok = sum(standard.values())
         outcomes[name] = standard
-        table[name] = {"task": task, "limit": limit, "demonstrations": data, "standard": standard, "own": own}
+        ends = how_failures_end(args.work / "standard" / name)
+        table[name] = {
+            "task": task,
+            "limit": limit,
+            "demonstrations": data,
+            "standard": standard,
+            "own": own,
+            "failures_end": ends,
+        }
         own_cells = " | ".join(rate(*own[k]) if k in own else "–" for k in ("stored", "heldout"))
-        rows.append(f"| {task} | {data} | `{name}` | {limit} | {rate(ok, len(standard))} | {own_cells} |")
+        stops = (
+            "–"
+            if ends is None
+            else f"{ends['stopped']} of {ends['failures']} ({ends['stopped_closed']} closed)"
+        )
+        rows.append(
+            f"| {task} | {data} | `{name}` | {limit} | {rate(ok, len(standard))} | {stops} | {own_cells} |"
+        )
     lines = [
         "# Learning from demonstrations that fit the standard step limits (issue 74)",
         "",
@@ -99,10 +151,12 @@ def main(argv: list[str] | None = None) -> int:
         "(`tail-`: today's with 10 steps recorded after the goal, `generate --after-goal 10`). "
         "*Standard*: `libero-bench eval RUN --protocol standard --trials 20` (openpi's LIBERO loop, stored "
         "init states 0-19, the suite's own step limit after the 10 waits). *Stored* and *held out*: the "
-        "run's own evaluation, 20 starts each, cut at the same limit. Wilson 95% intervals.",
+        "run's own evaluation, 20 starts each, cut at the same limit. Wilson 95% intervals. *Failures "
+        f"stopped*: the standard evaluation's failures whose gripper moved less than {STILL_METRES * 100:.0f} cm "
+        f"over their last {STILL_STEPS} steps, and of those the ones holding the gripper closed.",
         "",
-        "| task | demonstrations | run | step limit | standard | stored | held out |",
-        "|---|---|---|---:|---:|---:|---:|",
+        "| task | demonstrations | run | step limit | standard | failures stopped | stored | held out |",
+        "|---|---|---|---:|---:|---|---:|---:|",
         *rows,
         "",
         "Paired on the standard protocol's starts (the same stored init state, the same fixtures):",

@@ -515,7 +515,38 @@ def test_the_pace_report_tables_the_runs_evaluated_and_pairs_them_start_for_star
     evaluated("after-spatial-7", [True, False, True, True])
     assert pace_report.main([str(tmp_path), "--out", str(tmp_path / "out")]) == 0
     report = (tmp_path / "out" / "pace.md").read_text()
-    assert "| libero_goal/3 | today | `after-goal-3` | 300 | not evaluated yet | | |" in report
+    assert "| libero_goal/3 | today | `after-goal-3` | 300 | not evaluated yet | | | |" in report
     assert "| libero_spatial/7 | `before-spatial-7` | `after-spatial-7` | 1/4 | 3/4 | 0 | 2 | 0.5 |" in report
     pairs = json.loads((tmp_path / "out" / "pace.json").read_text())["pairs"]
     assert pairs == {"before-spatial-7 vs after-spatial-7": {"n": 4, "only_a": 0, "only_b": 2, "p": 0.5}}
+
+
+def test_the_pace_report_tells_failures_that_stop_from_those_still_moving(tmp_path: Path) -> None:
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from benchmarks.pace_report import how_failures_end
+
+    rollouts = tmp_path / "rollouts"
+    (rollouts / "data" / "chunk-000").mkdir(parents=True)
+    (rollouts / "meta").mkdir()
+    steps = 80
+    still = np.zeros((steps, 7))  # stays put, gripper closed
+    moving = np.zeros((steps, 7))
+    moving[:, 0] = np.linspace(0.0, 0.4, steps)  # 40 cm along x, gripper open
+    poses = np.concatenate([still, moving])
+    actions = np.zeros((2 * steps, 7))
+    actions[:steps, 6], actions[steps:, 6] = 1.0, -1.0
+    table = {
+        "action": [list(a) for a in actions],
+        "libero.eef_pose": [list(p) for p in poses],
+        "episode_index": [0] * steps + [1] * steps,
+    }
+    pq.write_table(pa.table(table), rollouts / "data" / "chunk-000" / "file-000.parquet")
+    rows = [{"episode_index": 0, "success": False}, {"episode_index": 1, "success": False}]
+    (rollouts / "meta" / "libero_episodes.jsonl").write_text("\n".join(json.dumps(r) for r in rows))
+    assert how_failures_end(tmp_path) == {"failures": 2, "stopped": 1, "stopped_closed": 1}
+    shutil.rmtree(rollouts)  # carried without its rollouts: what was written beside it is read
+    assert how_failures_end(tmp_path) == {"failures": 2, "stopped": 1, "stopped_closed": 1}
+    assert how_failures_end(tmp_path / "elsewhere") is None
