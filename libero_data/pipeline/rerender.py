@@ -81,6 +81,7 @@ def _records(source: Path, request: GenerateRequest) -> dict[str, EpisodeRecord]
             actions=np.asarray(actions, dtype=np.float64),
             states=np.asarray(states, dtype=np.float64),
             plan=tuple(row.get("plan", [])),
+            goal_step=int(row.get("goal_step", 0)),  # its steps after the goal are rendered too
         )
     for slot in slots:
         records.setdefault(

@@ -78,3 +78,9 @@ def test_a_dataset_with_steps_after_the_goal_counts_the_steps_to_it(tmp_path: Pa
     assert meta["tasks"][0]["within_standard_limit"] == 1
     card = (out / "README.md").read_text()
     assert "| steps after the goal | 4 (`--after-goal 4`)" in card
+    from libero_data.pipeline.rerender import _records, rerender_request
+
+    again = rerender_request(out, image_size=32, features="libero-data", cameras=("agentview",))
+    records = _records(out, again)
+    (record,) = records.values()  # a re-render keeps them, and still counts the steps to the goal
+    assert record.goal_step == row["goal_step"] and len(record.trajectory()[1]) == row["length"]
