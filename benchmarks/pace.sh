@@ -158,6 +158,10 @@ standard() {  # entries...: each run under the standard protocol
       echo "$name: evaluated already ($work/standard/$name)"
       continue
     fi
+    if [[ ! -d $work/runs/$name ]] || ! finished "$work/runs/$name"; then
+      echo "$name: not learned yet, not evaluated"
+      continue
+    fi
     $lb eval "$work/runs/$name" --protocol standard --trials 20 --tasks "$suite/$index" --workers 2 \
       --out "$work/standard/$name"
   done
