@@ -12,12 +12,13 @@
 #         (benchmarks/pace_before_sampler_fix.patch): before it, LIBERO's placement sampler put
 #         libero_spatial/7's bowl on the floor (0 of 800 attempts at its data); the expert's own
 #         code is as it was.
-# after   Today's expert: the same two tasks and the three on which the quick recipe missed 80% in
-#         RESULTS ("Quick on the other suites": libero_spatial/8, libero_goal/1, libero_10/0), each
-#         episode within its suite's standard limit (generate's default --max-length), same recipe.
-# tail    Today's expert on libero_spatial/7 again, with 10 steps recorded after the goal
-#         (`generate --after-goal 10`, as LIBERO's human demonstrations have): the policies trained on
-#         today's data stop over the plate with the bowl held, and a release was 3 frames of ~150.
+# after   Today's expert on the same two tasks, each episode within its suite's standard limit
+#         (generate's default --max-length), same recipe.
+# tail    Today's expert with 10 steps recorded after the goal (`generate --after-goal 10`, as
+#         LIBERO's human demonstrations have): the after-runs' policies stopped over the target with
+#         the object held, a release being 3 frames of ~150. The same two tasks and the three on
+#         which the quick recipe missed 80% in RESULTS ("Quick on the other suites":
+#         libero_spatial/8, libero_goal/1, libero_10/0).
 # eval    Every run evaluated under the standard protocol (openpi's LIBERO loop, the suite's own
 #         limit after the 10 waits: spatial 220, goal 300, libero_10 520) from stored init states
 #         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
@@ -55,9 +56,9 @@ BEFORE=d9e2855
 
 # name:suite:task:limit, in the order they start (the longest demonstrations first)
 before=(before-goal-3:libero_goal:3:300 before-spatial-7:libero_spatial:7:220)
-after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220 after-long-0:libero_10:0:520
-  after-spatial-8:libero_spatial:8:220 after-goal-1:libero_goal:1:300)
-tail=(tail-spatial-7:libero_spatial:7:220)
+after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220)
+tail=(tail-spatial-7:libero_spatial:7:220 tail-goal-3:libero_goal:3:300 tail-long-0:libero_10:0:520
+  tail-spatial-8:libero_spatial:8:220 tail-goal-1:libero_goal:1:300)
 
 finished() {  # run folder: whether it has learned and made its own evaluation (results.json)
   .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
@@ -190,7 +191,8 @@ if [[ $part == report || $part == all ]]; then
     for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$results/standard/$name/$f"; done
   done
   $lb report "${runs[@]}" --out "$results/report"
-  for pair in before-goal-3:after-goal-3 before-spatial-7:after-spatial-7 after-spatial-7:tail-spatial-7; do
+  for pair in before-goal-3:after-goal-3 before-spatial-7:after-spatial-7 after-goal-3:tail-goal-3 \
+    after-spatial-7:tail-spatial-7; do
     a=${pair%%:*} b=${pair##*:}
     if [[ -f $work/standard/$a/report.json && -f $work/standard/$b/report.json ]]; then
       $lb compare "$work/runs/$a" "$work/runs/$b" --out "$results/compare-${b}"

@@ -20,21 +20,25 @@ from typing import Any
 from libero_data.runtime.files import write_text
 from libero_data.stats import mcnemar_exact, wilson_interval
 
+#: Today's demonstrations with 10 steps recorded after the goal (``generate --after-goal 10``).
+TAIL = "today, 10 steps after the goal"
 #: (run, task, limit, demonstrations) in the order the table lists them.
 RUNS = (
     ("before-goal-3", "libero_goal/3", 300, "before"),
     ("after-goal-3", "libero_goal/3", 300, "today"),
+    ("tail-goal-3", "libero_goal/3", 300, TAIL),
     ("before-spatial-7", "libero_spatial/7", 220, "before"),
     ("after-spatial-7", "libero_spatial/7", 220, "today"),
-    ("after-spatial-8", "libero_spatial/8", 220, "today"),
-    ("after-goal-1", "libero_goal/1", 300, "today"),
-    ("after-long-0", "libero_10/0", 520, "today"),
-    ("tail-spatial-7", "libero_spatial/7", 220, "today, 10 steps after the goal"),
+    ("tail-spatial-7", "libero_spatial/7", 220, TAIL),
+    ("tail-spatial-8", "libero_spatial/8", 220, TAIL),
+    ("tail-goal-1", "libero_goal/1", 300, TAIL),
+    ("tail-long-0", "libero_10/0", 520, TAIL),
 )
 #: Runs compared start for start: the same task on two kinds of demonstrations.
 PAIRS = (
     ("before-goal-3", "after-goal-3"),
     ("before-spatial-7", "after-spatial-7"),
+    ("after-goal-3", "tail-goal-3"),
     ("after-spatial-7", "tail-spatial-7"),
 )
 

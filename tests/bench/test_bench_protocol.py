@@ -516,6 +516,7 @@ def test_the_pace_report_tables_the_runs_evaluated_and_pairs_them_start_for_star
     assert pace_report.main([str(tmp_path), "--out", str(tmp_path / "out")]) == 0
     report = (tmp_path / "out" / "pace.md").read_text()
     assert "| libero_goal/3 | today | `after-goal-3` | 300 | not evaluated yet | | | |" in report
+    assert "| libero_10/0 | today, 10 steps after the goal | `tail-long-0` | 520 | not evaluated yet |" in report
     assert "| libero_spatial/7 | `before-spatial-7` | `after-spatial-7` | 1/4 | 3/4 | 0 | 2 | 0.5 |" in report
     pairs = json.loads((tmp_path / "out" / "pace.json").read_text())["pairs"]
     assert pairs == {"before-spatial-7 vs after-spatial-7": {"n": 4, "only_a": 0, "only_b": 2, "p": 0.5}}
