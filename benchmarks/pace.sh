@@ -88,8 +88,9 @@ if [[ $part == carry-out ]]; then
       for f in "${evaluation[@]}"; do  # the carry keeps the run at CARRY/<run>
         portable "$work/standard/$name/$f" "$carry/standard/$name/$f" "$work/runs" "$carry"
       done
-      ends=$work/standard/$name/failures_end.json  # benchmarks/pace_report.py: how its failures end
-      [[ -f $ends ]] && cp "$ends" "$carry/standard/$name/"
+      for f in failures_end.json release.json; do  # pace_report's and pace_release's summaries
+        [[ -f $work/standard/$name/$f ]] && cp "$work/standard/$name/$f" "$carry/standard/$name/"
+      done
     fi
   done
   exit
@@ -106,7 +107,9 @@ if [[ $part == carry-in ]]; then
       for f in "${evaluation[@]}"; do
         portable "$folder/$f" "$work/standard/$name/$f" "$carry/$name" "$work/runs/$name"
       done
-      [[ -f $folder/failures_end.json ]] && cp "$folder/failures_end.json" "$work/standard/$name/"
+      for f in failures_end.json release.json; do
+        [[ -f $folder/$f ]] && cp "$folder/$f" "$work/standard/$name/"
+      done
     fi
   done
   exit
@@ -186,6 +189,10 @@ if [[ $part == report || $part == all ]]; then
       continue
     fi
     runs+=("$work/runs/$name")
+    if [[ ! -f $work/standard/$name/release.json && -d $work/$name-64 ]]; then  # needs the dataset
+      .venv/bin/python -m benchmarks.pace_release "$work/runs/$name" "$work/$name-64" \
+        --out "$work/standard/$name/release.json"
+    fi
     mkdir -p "$results/runs/$name" "$results/standard/$name"
     cp "$work/runs/$name"/{config.json,results.json,timings.jsonl} "$results/runs/$name/"
     for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$results/standard/$name/$f"; done

@@ -61,8 +61,8 @@ def measure(run: Path, data: Path, every: int = 4) -> dict[str, Any]:
             batch = {key: value.unsqueeze(0) for key, value in windows[i].items()}
             opened[offset].append(float(loaded.policy.act(batch_to_device(batch, "cpu"))[0, -1]) < 0)
     return {
-        "run": str(run),
-        "data": str(data),
+        "run": run.name,  # names, not this machine's paths: the file is committed
+        "data": data.name,
         "episodes": len(episodes),
         "opens": {
             str(k): {"open": sum(v), "of": len(v), "demonstration": "open" if k >= 0 else "closed"}

@@ -86,6 +86,21 @@ def how_failures_end(folder: Path) -> dict[str, int] | None:
     return ends
 
 
+RELEASE_OFFSETS = ("-3", "-1", "0", "1", "2", "5")
+
+
+def release_row(folder: Path) -> list[str] | None:
+    """The cells of a run's ``release.json`` (benchmarks/pace_release.py), or None without one."""
+    path = folder / "release.json"
+    if not path.is_file():
+        return None
+    opens = json.loads(path.read_text())["opens"]
+    return [
+        f"{opens[k]['open']}/{opens[k]['of']}" if k in opens and opens[k]["of"] else "–"
+        for k in RELEASE_OFFSETS
+    ]
+
+
 def run_outcomes(folder: Path) -> dict[str, tuple[int, int]]:
     """{kind of start: (successes, rollouts)} of a single-task run's final evaluation."""
     results = json.loads((folder / "results.json").read_text())
@@ -122,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     table: dict[str, dict[str, Any]] = {}
     outcomes: dict[str, dict[int, bool]] = {}
     for name, task, limit, data in RUNS:
-        if not (args.work / "standard" / name / "results.json").is_file():
+        if not (args.work / "standard" / name / "report.json").is_file():  # written once it is complete
             rows.append(f"| {task} | {data} | `{name}` | {limit} | not evaluated yet | | | |")
             continue
         standard = standard_outcomes(args.work / "standard" / name)
@@ -182,6 +197,21 @@ def main(argv: list[str] | None = None) -> int:
             f"| {table[a]['task']} | `{a}` | `{b}` | {sum(sa[i] for i in common)}/{len(common)} | "
             f"{sum(sb[i] for i in common)}/{len(common)} | {only_a} | {only_b} | {p:.2g} |"
         )
+    releases = {name: release_row(args.work / "standard" / name) for name, *_ in RUNS}
+    lines += [
+        "",
+        "Whether each policy opens the gripper at its own demonstrations' last release "
+        "(`python -m benchmarks.pace_release RUN DATA`: 25 of its 100 demonstrations, each release fed with "
+        "the demonstration's own window of frames; the demonstration opens from +0):",
+        "",
+        "| run | " + " | ".join(f"{int(k):+d}" for k in RELEASE_OFFSETS) + " |",
+        "|---|" + "---:|" * len(RELEASE_OFFSETS),
+        *(
+            f"| `{name}` | " + " | ".join(cells) + " |"
+            for name, cells in releases.items()
+            if cells is not None
+        ),
+    ]
     args.out.mkdir(parents=True, exist_ok=True)
     write_text(args.out / "pace.md", "\n".join(lines) + "\n")
     serial = {k: {**v, "standard": {str(i): s for i, s in v["standard"].items()}} for k, v in table.items()}

@@ -507,19 +507,31 @@ def test_the_pace_report_tables_the_runs_evaluated_and_pairs_them_start_for_star
         (tmp_path / "standard" / name).mkdir(parents=True)
         rollouts = [{"init_index": i, "success": s} for i, s in enumerate(successes)]
         (tmp_path / "standard" / name / "results.json").write_text(json.dumps({"rollouts": rollouts}))
+        (tmp_path / "standard" / name / "report.json").write_text("{}")  # the evaluation is complete
         (tmp_path / "runs" / name).mkdir(parents=True)
         own = [{"epoch": 16, "start": "stored", "success": s} for s in successes]
         (tmp_path / "runs" / name / "results.json").write_text(json.dumps({"rollouts": own}))
 
     evaluated("before-spatial-7", [False, False, True, False])
     evaluated("after-spatial-7", [True, False, True, True])
+    evaluated("tail-spatial-7", [True, True])
+    (tmp_path / "standard" / "tail-spatial-7" / "report.json").unlink()  # still being made: left out
+    opens = {str(k): {"open": k + 3, "of": 25} for k in (-3, -1, 0, 1, 2)} | {"5": {"open": 0, "of": 0}}
+    (tmp_path / "standard" / "after-spatial-7" / "release.json").write_text(json.dumps({"opens": opens}))
     assert pace_report.main([str(tmp_path), "--out", str(tmp_path / "out")]) == 0
     report = (tmp_path / "out" / "pace.md").read_text()
+    assert "| `after-spatial-7` | 0/25 | 2/25 | 3/25 | 4/25 | 5/25 | – |" in report
     assert "| libero_goal/3 | today | `after-goal-3` | 300 | not evaluated yet | | | |" in report
-    assert "| libero_10/0 | today, 10 steps after the goal | `tail-long-0` | 520 | not evaluated yet |" in report
+    assert (
+        "| libero_10/0 | today, 10 steps after the goal | `tail-long-0` | 520 | not evaluated yet |" in report
+    )
     assert "| libero_spatial/7 | `before-spatial-7` | `after-spatial-7` | 1/4 | 3/4 | 0 | 2 | 0.5 |" in report
     pairs = json.loads((tmp_path / "out" / "pace.json").read_text())["pairs"]
     assert pairs == {"before-spatial-7 vs after-spatial-7": {"n": 4, "only_a": 0, "only_b": 2, "p": 0.5}}
+    assert (
+        "| libero_spatial/7 | today, 10 steps after the goal | `tail-spatial-7` | 220 | not evaluated yet |"
+        in report
+    )
 
 
 def test_the_pace_report_tells_failures_that_stop_from_those_still_moving(tmp_path: Path) -> None:
