@@ -188,7 +188,7 @@ if [[ $part == report || $part == all ]]; then
       echo "$name: not evaluated yet, left out of the report"
       continue
     fi
-    runs+=("$work/runs/$name")
+    runs+=("$results/runs/$name")  # the committed copies: what the report names resolves on a clone
     if [[ ! -f $work/standard/$name/release.json && -d $work/$name-64 ]]; then  # needs the dataset
       .venv/bin/python -m benchmarks.pace_release "$work/runs/$name" "$work/$name-64" \
         --out "$work/standard/$name/release.json"
@@ -202,7 +202,7 @@ if [[ $part == report || $part == all ]]; then
     after-spatial-7:tail-spatial-7; do
     a=${pair%%:*} b=${pair##*:}
     if [[ -f $work/standard/$a/report.json && -f $work/standard/$b/report.json ]]; then
-      $lb compare "$work/runs/$a" "$work/runs/$b" --out "$results/compare-${b}"
+      $lb compare "$results/runs/$a" "$results/runs/$b" --out "$results/compare-${b}"
     fi
   done
   .venv/bin/python -m benchmarks.pace_report "$work" --out "$results"
