@@ -30,6 +30,8 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
+import re
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
@@ -125,9 +127,6 @@ def portable_copy(source: Path, target: Path, work: Path, moves: Sequence[tuple[
     ``WORK/runs/<run>``: its evaluation, carried to ``CARRY/standard/<run>``, still finds it, and
     again once carried back in.
     """
-    import os
-    import re
-
     work, folder, there = work.resolve(), source.resolve().parent, target.resolve().parent
     moved = [(str(old.resolve()), str(new.resolve())) for old, new in moves]
 

@@ -70,8 +70,10 @@ portable() {  # source target [old new]...: a copy naming WORK's paths relative 
 a = [Path(x) for x in sys.argv[1:]]
 portable_copy(a[0], a[1], a[2], list(zip(a[3::2], a[4::2])))' "$1" "$2" "$work" "${@:3}"
 }
-#: what of a standard evaluation the report reads (its rollouts' recordings stay behind)
+#: what of a standard evaluation the report reads (its rollouts' recordings stay behind), and the
+#: summaries pace_report and pace_release keep beside it where they were made
 evaluation=(config.json results.json report.json report.md)
+summaries=(failures_end.json release.json)
 
 carry=${CARRY:-$results/carry}
 if [[ $part == carry-out ]]; then
@@ -88,7 +90,7 @@ if [[ $part == carry-out ]]; then
       for f in "${evaluation[@]}"; do  # the carry keeps the run at CARRY/<run>
         portable "$work/standard/$name/$f" "$carry/standard/$name/$f" "$work/runs" "$carry"
       done
-      for f in failures_end.json release.json; do  # pace_report's and pace_release's summaries
+      for f in "${summaries[@]}"; do
         [[ -f $work/standard/$name/$f ]] && cp "$work/standard/$name/$f" "$carry/standard/$name/"
       done
     fi
@@ -107,7 +109,7 @@ if [[ $part == carry-in ]]; then
       for f in "${evaluation[@]}"; do
         portable "$folder/$f" "$work/standard/$name/$f" "$carry/$name" "$work/runs/$name"
       done
-      for f in failures_end.json release.json; do
+      for f in "${summaries[@]}"; do
         [[ -f $folder/$f ]] && cp "$folder/$f" "$work/standard/$name/"
       done
     fi
@@ -198,8 +200,8 @@ if [[ $part == report || $part == all ]]; then
     for f in "${evaluation[@]}"; do portable "$work/standard/$name/$f" "$results/standard/$name/$f"; done
   done
   $lb report "${runs[@]}" --out "$results/report"
-  for pair in before-goal-3:after-goal-3 before-spatial-7:after-spatial-7 after-goal-3:tail-goal-3 \
-    after-spatial-7:tail-spatial-7; do
+  pairs=$(.venv/bin/python -c 'from benchmarks.pace_report import PAIRS; print(*(f"{a}:{b}" for a, b in PAIRS))')
+  for pair in $pairs; do  # the runs pace_report pairs start for start
     a=${pair%%:*} b=${pair##*:}
     if [[ -f $work/standard/$a/report.json && -f $work/standard/$b/report.json ]]; then
       $lb compare "$results/runs/$a" "$results/runs/$b" --out "$results/compare-${b}"

@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from libero_data.pipeline.request import MOST_AFTER_GOAL
+
 MaxAttempts = Annotated[
     int,
     typer.Option("--max-attempts", help="Expert attempts per episode before the episode is given up.", min=1),
@@ -31,6 +33,6 @@ AfterGoal = Annotated[
         "after a release): robosuite's and LIBERO's human collection records 10. Without them a release is the "
         "last 3 frames of an episode. The goal must still hold after them; --max-length counts the steps to the goal.",
         min=0,
-        max=100,
+        max=MOST_AFTER_GOAL,
     ),
 ]

@@ -67,8 +67,8 @@ class EpisodeDone:
 
 def done_event(slot: Slot, record: EpisodeRecord) -> EpisodeDone:
     """What is reported of a slot once its record (and a kept episode's shard) is on disk."""
-    length = len(record.actions) if record.success and record.actions is not None else 0
-    length = record.goal_step or length  # the steps to the goal, not those recorded after it
+    kept = record.actions if record.success else None
+    length = 0 if kept is None else record.goal_step or len(kept)  # steps to the goal, not after it
     return EpisodeDone(slot.key, slot.k, record.success, record.attempts, record.too_long, length)
 
 

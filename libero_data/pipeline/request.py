@@ -104,15 +104,7 @@ class GenerateRequest(Config):
     def __post_init__(self) -> None:
         check_arm_noise(self.arm_noise)
         check_max_length(self.max_length)
-        if (
-            isinstance(self.after_goal, bool)
-            or not isinstance(self.after_goal, int)
-            or not 0 <= self.after_goal <= 100
-        ):
-            raise InputError(
-                f"the steps recorded after the goal must be a whole number in 0..100, got {self.after_goal!r}",
-                field="after_goal",
-            )
+        check_after_goal(self.after_goal)
         if self.episodes_per_task < 1:
             raise InputError(
                 f"episodes per task must be at least 1, got {self.episodes_per_task}",
@@ -160,6 +152,20 @@ def check_max_length(value: object) -> None:
         raise InputError(
             f"the length bound is a positive number of steps, {STANDARD!r} or {NO_BOUND!r}, got {value!r}",
             field="max_length",
+        )
+
+
+#: The most steps ``generate --after-goal`` records after the goal.
+MOST_AFTER_GOAL = 100
+
+
+def check_after_goal(value: object) -> None:
+    """:class:`InputError` naming ``after_goal`` unless ``value`` is a whole number of steps in
+    0..:data:`MOST_AFTER_GOAL`."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MOST_AFTER_GOAL:
+        raise InputError(
+            f"the steps recorded after the goal must be a whole number in 0..{MOST_AFTER_GOAL}, got {value!r}",
+            field="after_goal",
         )
 
 
