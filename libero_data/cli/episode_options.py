@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from libero_data.pipeline.request import MOST_AFTER_GOAL
+from libero_data.pipeline.request import AFTER_GOAL, MOST_AFTER_GOAL
 
 MaxAttempts = Annotated[
     int,
@@ -26,13 +26,15 @@ MaxLength = Annotated[
     ),
 ]
 AfterGoal = Annotated[
-    int,
+    int | None,
     typer.Option(
         "--after-goal",
-        help="Steps recorded after the goal is first reached, the arm held still and the gripper as it was (open "
-        "after a release): robosuite's and LIBERO's human collection records 10. Without them a release is the "
-        "last 3 frames of an episode. The goal must still hold after them; --max-length counts the steps to the goal.",
+        help=f"Steps recorded after the goal is first reached, the arm held still and the gripper as it was (open "
+        f"after a release), as robosuite's and LIBERO's human collection records them (default: {AFTER_GOAL} for the "
+        "scripted expert; other sources keep their episodes as recorded). With 0 a release is the last 3 frames of an "
+        "episode. The goal must still hold after them; --max-length counts the steps to the goal.",
         min=0,
         max=MOST_AFTER_GOAL,
+        show_default=False,
     ),
 ]

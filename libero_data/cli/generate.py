@@ -200,7 +200,7 @@ def generate_cmd(
     seed: Seed = 0,
     max_attempts: MaxAttempts = 8,
     max_length: MaxLength = "standard",
-    after_goal: AfterGoal = 0,
+    after_goal: AfterGoal = None,
     repo_id: RepoId = None,
     publish_every: PublishEvery = 60.0,
     keep_work: KeepWork = False,
@@ -213,7 +213,8 @@ def generate_cmd(
 
     The scripted expert makes them unless --source names another demonstration source. With --procedural or --variants-of, new tasks (procedural ones, robustness variants) are made and written into --out first, with their dataset. Episodes are searched without cameras and only kept episodes are rendered. Interrupt at any time (even with kill -9) and run the same command again: finished episodes are kept.
     """
-    from libero_data.pipeline.request import parse_max_length, resolve_request
+    from libero_data.pipeline.request import parse_max_length
+    from libero_data.pipeline.resolve import resolve_request
     from libero_data.record.features import PROFILE_IMAGE_SIZE
     from libero_data.runtime.jobs import JobPlacement
     from libero_data.runtime.memory import limit_malloc_arenas

@@ -213,7 +213,7 @@ def suite_card(
     states, seed) is stated beside them.
     """
     from libero_data.cards import render_card
-    from libero_data.pipeline.request import sim_state_width
+    from libero_data.pipeline.request import AFTER_GOAL, sim_state_width
     from libero_data.runtime.versions import versions
     from libero_data.tasks import get_suite
 
@@ -225,6 +225,7 @@ def suite_card(
         image_size=image_size,
         seed=seed,
         repo_id=f"libero-data/{suite.name.replace('/', '-')}",  # plus/libero_object: one name
+        after_goal=AFTER_GOAL,  # generate's default for the expert
     )
     lengths = report_lengths(request, suite, measured)
     tasks = []
@@ -244,6 +245,7 @@ def suite_card(
         "simplified visual meshes and states their measured difference)",
         "attempts per episode (at most)": str(request.max_attempts),
         "length bound (steps)": bound_words(request, lengths),
+        "steps after the goal": after_goal_words(request),
         "fps": "20",
         **{f"version: {k}": v for k, v in versions().items()},
         **{f"expert report: {k}": v for k, v in (measured_by or {}).items()},

@@ -32,12 +32,8 @@ from libero_data.pipeline.episodes import (
     search_path,
     shard_path,
 )
-from libero_data.pipeline.request import (
-    GenerateRequest,
-    resolve_request,
-    sim_state_width,
-    slots_of,
-)
+from libero_data.pipeline.request import GenerateRequest, sim_state_width, slots_of
+from libero_data.pipeline.resolve import resolve_request
 from libero_data.pipeline.sources import EpisodeRecord
 from libero_data.runtime.files import write_json
 from libero_data.runtime.folder import DATASET_WORK, WorkFolder, changed_keys

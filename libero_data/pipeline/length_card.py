@@ -20,7 +20,7 @@ from libero_data.cards.lengths import (
     length_section,
     within_limit,
 )
-from libero_data.pipeline.request import STANDARD
+from libero_data.pipeline.request import AFTER_GOAL, STANDARD
 from libero_data.tasks.horizons import base_suite, standard_limit
 
 if TYPE_CHECKING:
@@ -101,9 +101,10 @@ def to_goal(info: Mapping[str, Any]) -> int:
 def after_goal_words(request: GenerateRequest) -> str:
     """The card's settings row for the steps recorded after the goal."""
     if not request.after_goal:
-        return "0: an episode ends at the step its goal is first reached"
+        return "0 (`--after-goal 0`): an episode ends at the step its goal is first reached"
+    default = ", the default" if request.after_goal == AFTER_GOAL else ""
     return (
-        f"{request.after_goal} (`--after-goal {request.after_goal}`): the arm held still, the gripper as it was; "
+        f"{request.after_goal} (`--after-goal {request.after_goal}`{default}): the arm held still, the gripper as it was; "
         "the goal still holds after them. Lengths against the limit and the bound count the steps to the goal"
     )
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, ClassVar
 
 from libero_data.config import Config
@@ -157,6 +156,10 @@ def check_max_length(value: object) -> None:
 
 #: The most steps ``generate --after-goal`` records after the goal.
 MOST_AFTER_GOAL = 100
+#: The steps the expert records after the goal unless told otherwise: robosuite's and LIBERO's human
+#: collection records 10 (the goal must hold that long). Without them a policy sees a release only in
+#: an episode's last 3 frames (benchmarks/RESULTS.md, "The proof by learning").
+AFTER_GOAL = 10
 
 
 def check_after_goal(value: object) -> None:
@@ -190,56 +193,6 @@ class Slot:
     @property
     def key(self) -> str:
         return f"{self.position:03d}-{self.k:05d}"
-
-
-def resolve_request(
-    suite: str,
-    tasks: list[str] | None = None,
-    *,
-    episodes_per_task: int = 50,
-    image_size: int = 128,
-    seed: int = 0,
-    max_attempts: int = 8,
-    repo_id: str | None = None,
-    starts: str = "sampler",
-    features: str = "libero-data",
-    cameras: tuple[str, ...] = CAMERAS,
-    render_quality: str = "full",
-    arm_noise: float = ARM_INIT_NOISE,
-    max_length: int | str | None = STANDARD,
-    after_goal: int = 0,
-    source: str = "",
-) -> GenerateRequest:
-    """Check the user's choices and turn task names/indices into suite indices."""
-    from libero_data.tasks import get_suite
-
-    s = get_suite(suite)
-    if tasks:
-        indices = [s.task(ref).index for ref in tasks]
-        if len(set(indices)) != len(indices):
-            raise InputError("the task list names a task twice", field="tasks")
-    else:
-        indices = [t.index for t in s.tasks]
-    for i in indices:
-        s.tasks[i].require_buildable()  # a LIBERO-Plus task without its asset: one sentence naming it
-    suite_id = str(Path(suite).resolve()) if s.path is not None else s.name
-    return GenerateRequest(
-        suite=suite_id,
-        tasks=tuple(indices),
-        episodes_per_task=episodes_per_task,
-        image_size=image_size,
-        seed=seed,
-        max_attempts=max_attempts,
-        repo_id=repo_id or f"libero-data/{s.name.replace('/', '-')}",  # plus/libero_object: one name
-        starts=starts,
-        features=features,
-        cameras=tuple(cameras),
-        render_quality=render_quality,
-        arm_noise=float(arm_noise),
-        max_length=max_length,
-        after_goal=after_goal,
-        source=source,
-    )
 
 
 def slots_of(request: GenerateRequest) -> list[Slot]:

@@ -58,7 +58,7 @@ def test_a_dataset_with_steps_after_the_goal_counts_the_steps_to_it(tmp_path: Pa
     goal: each episode ends with them, its goal still holds (rendering checks it), and the card
     and metadata count the steps to the goal against the limit and the bound."""
     from libero_data.pipeline.generate import generate
-    from libero_data.pipeline.request import resolve_request
+    from libero_data.pipeline.resolve import resolve_request
     from tests.pipeline.conftest import data_table
 
     request = resolve_request(

@@ -139,6 +139,7 @@ def test_episode_metadata_and_bddl_are_stored(tiny_dataset: Path) -> None:
 
 
 def test_mcap_logs_have_every_channel(tiny_dataset: Path) -> None:
+    from libero_data.pipeline.request import AFTER_GOAL
     from libero_data.record.mcap_log import read_mcap
 
     rows = [
@@ -159,7 +160,9 @@ def test_mcap_logs_have_every_channel(tiny_dataset: Path) -> None:
         actions = [m for t, _, m in messages if t == "/action"]
         assert len(actions) == row["length"]
         success = [m["success"] for t, _, m in messages if t == "/success"]
-        assert success[-1] is True and not any(success[:-1])
+        reached = row["goal_step"] - 1  # the step the goal is first reached, held for the 10 after it
+        assert len(success) - row["goal_step"] == AFTER_GOAL
+        assert all(success[reached:]) and not any(success[:reached])
         image = next(m for t, _, m in messages if t == "/camera/agentview")
         assert image["format"] == "jpeg" and len(image["data"]) > 100
         language = next(m for t, _, m in messages if t == "/language")
@@ -285,7 +288,7 @@ def test_no_episode_the_card_calls_usable_exceeds_the_length_bound(tmp_path: Pat
     the expert report) under a 91-step bound: attempts longer than it are failed attempts; whatever
     the search found, nothing kept is longer, and the card and metadata count what was stopped."""
     from libero_data.pipeline.generate import generate
-    from libero_data.pipeline.request import resolve_request
+    from libero_data.pipeline.resolve import resolve_request
     from libero_data.pipeline.sources import EpisodeRecord
 
     bound = 91

@@ -143,6 +143,26 @@ def test_the_cli_default_length_bound_is_the_standard_limit() -> None:
     assert parse_max_length(default) == GenerateRequest("libero_goal", (0,)).max_length == "standard"
 
 
+def test_the_expert_records_ten_steps_after_the_goal_unless_told_and_other_sources_none() -> None:
+    """``generate``'s default: 10 steps after the goal for the expert (as LIBERO's human collection
+    records them); a source that keeps its episodes as recorded takes 0 and refuses any other."""
+    import inspect
+
+    from libero_data.cli.generate import generate_cmd
+    from libero_data.pipeline.request import AFTER_GOAL
+    from libero_data.pipeline.resolve import resolve_request
+
+    assert AFTER_GOAL == 10
+    assert inspect.signature(generate_cmd).parameters["after_goal"].default is None
+    assert resolve_request("libero_goal", ["0"]).after_goal == AFTER_GOAL
+    assert resolve_request("libero_goal", ["0"], source="scripted").after_goal == AFTER_GOAL
+    assert resolve_request("libero_goal", ["0"], after_goal=0).after_goal == 0
+    assert resolve_request("libero_goal", ["0"], source="libero_hdf5").after_goal == 0
+    with pytest.raises(InputError, match="records no steps after the goal") as error:
+        resolve_request("libero_goal", ["0"], after_goal=5, source="libero_hdf5")
+    assert error.value.field == "after_goal"
+
+
 def test_steps_after_the_goal_are_checked_and_a_request_without_them_reads_as_before(tmp_path: Path) -> None:
     # `--after-goal` is written only when set: a folder begun before it existed resumes unchanged.
     assert "after_goal" not in GenerateRequest("libero_goal", (0,)).to_dict()

@@ -80,7 +80,7 @@ def test_sources_are_asked_in_order_and_the_expert_makes_any_other_request() -> 
 
 def test_a_named_source_is_known_and_can_make_the_request() -> None:
     from libero_data.errors import InputError
-    from libero_data.pipeline.request import resolve_request
+    from libero_data.pipeline.resolve import resolve_request
 
     plain = GenerateRequest(suite="libero_goal", tasks=(7,))
     with pytest.raises(

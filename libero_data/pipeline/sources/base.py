@@ -171,6 +171,9 @@ class DemoSource:
     needs: ClassVar[str] = ""
     #: how its demonstrations are made, for the card (default: the class docstring's first paragraph)
     description: ClassVar[str] = ""
+    #: whether it records ``--after-goal``'s steps after an episode's goal (the expert does; a source
+    #: that keeps episodes as they were recorded does not)
+    records_after_goal: ClassVar[bool] = False
 
     def __init__(self, name: str) -> None:
         self.name = name

@@ -29,8 +29,9 @@ if TYPE_CHECKING:
 
 #: The demonstrator an imported episode names.
 HUMAN = "human (LIBERO's teleoperated demonstrations)"
-#: The card's settings rows that say nothing of human demonstrations (no expert, seed or attempts).
-NOT_APPLICABLE = ("seed", "attempts per episode (at most)", "expert code")
+#: The card's settings rows that say nothing of human demonstrations (no expert, seed or attempts;
+#: an episode is kept as recorded, with the steps its recorder took after the goal).
+NOT_APPLICABLE = ("seed", "attempts per episode (at most)", "steps after the goal", "expert code")
 
 
 class LiberoHDF5(DemoSource):

@@ -27,6 +27,7 @@ class ScriptedExpert(DemoSource):
     asked last."""
 
     order = 100
+    records_after_goal = True
 
     def claims(self, request: GenerateRequest) -> bool:
         return True
