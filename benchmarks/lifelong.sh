@@ -141,8 +141,9 @@ if [[ $part == seeds || $part == arch ]] && [[ ! -d $work/object-64 ]] && [[ $pr
   [[ $digest == "$DATA_DIGEST" ]] || { echo "$work/object-64 is not the five's data (digest $digest)" >&2; exit 1; }
 fi
 if [[ $part == data || $part == all ]]; then
+  # --after-goal 0: the five's data was made before the expert recorded steps after the goal
   $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task "$episodes" --image-size 64 \
-    --render-quality fast --workers 2 --seed 0 --out "$work/object-64"
+    --render-quality fast --workers 2 --seed 0 --after-goal 0 --out "$work/object-64"
 fi
 if [[ $part == sweep || $part == all ]]; then
   run_all \

@@ -31,8 +31,9 @@ export OMP_NUM_THREADS=1 SVT_LOG=1
 ld=.venv/bin/libero-data
 lb=.venv/bin/libero-bench
 
+# --after-goal 0: the committed runs were trained on data made before the expert recorded steps after the goal
 $ld generate --suite libero_object --tasks 0,1,2 --episodes-per-task 100 --image-size 64 \
-  --render-quality fast --workers 2 --seed 0 --out "$work/object-64"
+  --render-quality fast --workers 2 --seed 0 --after-goal 0 --out "$work/object-64"
 
 # name:tasks:algorithm, in the order they start
 singles=(single-1:1:seql single-2:2:seql single-0:0:seql)

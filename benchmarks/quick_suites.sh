@@ -41,9 +41,10 @@ pids=()
 for entry in "${tasks[@]}"; do
   IFS=: read -r name suite index <<<"$entry"
   # --max-length none: the committed runs were trained on data made before generate bounded episode
-  # lengths (libero_spatial/8's expert episodes reach 208 of its 220-step standard limit)
+  # lengths (libero_spatial/8's expert episodes reach 208 of its 220-step standard limit), and
+  # --after-goal 0 before it recorded steps after the goal
   $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 --image-size 64 \
-    --render-quality fast --workers 2 --seed 0 --max-length none --out "$work/$name-64"
+    --render-quality fast --workers 2 --seed 0 --max-length none --after-goal 0 --out "$work/$name-64"
   while (($(jobs -rp | wc -l) >= 2)); do wait -n || true; done
   start_run "$name" "$index" &
   pids+=($!)

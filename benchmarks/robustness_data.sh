@@ -62,8 +62,9 @@ ld=.venv/bin/libero-data
 lb=.venv/bin/libero-bench
 kinds=camera,lighting,texture,noise,robot_init
 # --max-length none: the committed runs were trained on data made before generate bounded episode
-# lengths (libero_spatial/8's expert episodes reach 208 of its 220-step standard limit)
-common=(--image-size 64 --render-quality fast --workers 2 --seed 0 --max-length none)
+# lengths (libero_spatial/8's expert episodes reach 208 of its 220-step standard limit), and
+# --after-goal 0 before it recorded steps after the goal
+common=(--image-size 64 --render-quality fast --workers 2 --seed 0 --max-length none --after-goal 0)
 declare -A suites=([object-0]=libero_object:0 [spatial-8]=libero_spatial:8)
 mkdir -p "$work/logs"
 
@@ -182,7 +183,7 @@ if [[ -n ${MORE:-} ]]; then
     for seed in 1 2; do
       echo "$(date +%H:%M) variant draw $seed for $name"
       $ld generate --variants-of "$suite" --tasks "$index" --kinds "$kinds" --level 1,2,3 \
-        --episodes-per-task 20 --image-size 64 --render-quality fast --workers 2 --seed "$seed" \
+        --episodes-per-task 20 --image-size 64 --render-quality fast --workers 2 --seed "$seed" --after-goal 0 \
         --out "$work/$name-variants-s$seed"
       more+=(--mix "$work/$name-variants-s$seed")
     done
