@@ -194,4 +194,5 @@ def test_import_gives_the_source_episodes_states_actions_and_upright_frames(
 
     over = sum(int(row["length"]) > standard_limit(task.suite) for row in rows)
     assert "| length bound (steps) | none: episodes are kept however long they are |" in card
+    assert "| steps after the goal |" not in card  # kept as recorded, with the recorder's own steps after it
     assert f"Episodes are kept however long they are: {over} of {len(rows)} episode" in card
