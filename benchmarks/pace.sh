@@ -3,7 +3,8 @@
 # limits finish in time, where one trained on the expert's earlier, longer demonstrations runs out?
 #
 #   benchmarks/pace.sh [WORK_DIR] [PART]     (WORK_DIR default: ../pace-work beside the repository;
-#                                             PART: before, after, tail, eval, report, or all, the default)
+#                                             PART: before, after, tail, deft, eval, report, or all,
+#                                             the default)
 #
 # before  The expert as it was before issue 74 (git commit BEFORE, expert code aba7309349fc), checked
 #         out as a worktree in WORK_DIR/before-src and run from there: 100 demonstrations of each of
@@ -19,6 +20,11 @@
 #         the object held, a release being 3 frames of ~150. The same two tasks and the three on
 #         which the quick recipe missed 80% in RESULTS ("Quick on the other suites":
 #         libero_spatial/8, libero_goal/1, libero_10/0).
+# deft    The expert at a deft pace (libero_goal/3 and /5; RESULTS, "Pending: libero_goal/3 and /5 at a
+#         deft pace"), 10 steps after the goal, on libero_goal/3: its tail-run's policy ran out of
+#         time on demonstrations taking 86% of the limit. While that expert is a pending patch
+#         (benchmarks/results/expert_tables_pending/expert.patch), its data is made from a worktree
+#         of HEAD with the patch applied (WORK_DIR/deft-src); once landed, from the repository.
 # eval    Every run evaluated under the standard protocol (openpi's LIBERO loop, the suite's own
 #         limit after the 10 waits: spatial 220, goal 300, libero_10 520) from stored init states
 #         0-19 (`libero-bench eval RUN --protocol standard --trials 20`).
@@ -42,8 +48,8 @@ repo=$(pwd)
 work="${1:-../pace-work}"
 part="${2:-all}"
 case "$part" in
-  before | after | tail | eval | report | all | carry-out | carry-in) ;;
-  *) echo "pace.sh: PART must be before, after, tail, eval, report, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
+  before | after | tail | deft | eval | report | all | carry-out | carry-in) ;;
+  *) echo "pace.sh: PART must be before, after, tail, deft, eval, report, all, carry-out or carry-in, not '$part'" >&2; exit 2 ;;
 esac
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
@@ -59,6 +65,9 @@ before=(before-goal-3:libero_goal:3:300 before-spatial-7:libero_spatial:7:220)
 after=(after-goal-3:libero_goal:3:300 after-spatial-7:libero_spatial:7:220)
 tail=(tail-spatial-7:libero_spatial:7:220 tail-goal-3:libero_goal:3:300 tail-long-0:libero_10:0:520
   tail-spatial-8:libero_spatial:8:220 tail-goal-1:libero_goal:1:300)
+deft=(deft-goal-3:libero_goal:3:300)
+#: The pending expert change the deft runs' data is made with (none once it has landed).
+pending=benchmarks/results/expert_tables_pending/expert.patch
 
 finished() {  # run folder: whether it has learned and made its own evaluation (results.json)
   .venv/bin/python -c 'import sys, pathlib; from benchmarks.lifelong_carry import complete
@@ -78,12 +87,12 @@ summaries=(failures_end.json release.json)
 carry=${CARRY:-$results/carry}
 if [[ $part == carry-out ]]; then
   also=()
-  for entry in "${before[@]}" "${after[@]}" "${tail[@]}"; do  # finished: its checkpoint and results go too
+  for entry in "${before[@]}" "${after[@]}" "${tail[@]}" "${deft[@]}"; do  # finished: its checkpoint and results go too
     name=${entry%%:*}
     if [[ -d $work/runs/$name ]] && finished "$work/runs/$name"; then also+=(--also "$name"); fi
   done
   .venv/bin/python -m benchmarks.lifelong_carry out "$work" "$carry" "${also[@]}"
-  for entry in "${before[@]}" "${after[@]}" "${tail[@]}"; do
+  for entry in "${before[@]}" "${after[@]}" "${tail[@]}" "${deft[@]}"; do
     name=${entry%%:*}
     if [[ -f $work/standard/$name/report.json ]]; then
       mkdir -p "$carry/standard/$name"
@@ -127,9 +136,17 @@ generate() {  # name suite task: the dataset WORK/<name>-64
     # The old code, found first on the path; its generate kept every successful episode.
     (cd "$work/before-src" && PYTHONPATH="$work/before-src" $ld generate --suite "$suite" --tasks "$index" \
       --episodes-per-task 100 --image-size 64 --render-quality fast --workers 2 --seed 0 --out "$work/$name-64")
+  elif [[ $name == deft-* && -f $pending ]]; then
+    if [[ ! -d $work/deft-src ]]; then
+      git worktree add --detach "$work/deft-src" HEAD >/dev/null
+      git -C "$work/deft-src" apply "$repo/$pending"
+    fi
+    (cd "$work/deft-src" && PYTHONPATH="$work/deft-src" $ld generate --suite "$suite" --tasks "$index" \
+      --episodes-per-task 100 --image-size 64 --render-quality fast --workers 2 --seed 0 --after-goal 10 \
+      --out "$work/$name-64")
   else
     local after=0
-    [[ $name == tail-* ]] && after=10
+    [[ $name == tail-* || $name == deft-* ]] && after=10
     $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 --image-size 64 \
       --render-quality fast --workers 2 --seed 0 --after-goal "$after" --out "$work/$name-64"
   fi
@@ -177,14 +194,15 @@ case "$part" in
   before) learn "${before[@]}" ;;
   after) learn "${after[@]}" ;;
   tail) learn "${tail[@]}" ;;
-  eval) standard "${before[@]}" "${after[@]}" "${tail[@]}" ;;
-  all) learn "${before[@]}" && learn "${after[@]}" && learn "${tail[@]}" &&
-    standard "${before[@]}" "${after[@]}" "${tail[@]}" ;;
+  deft) learn "${deft[@]}" ;;
+  eval) standard "${before[@]}" "${after[@]}" "${tail[@]}" "${deft[@]}" ;;
+  all) learn "${before[@]}" && learn "${after[@]}" && learn "${tail[@]}" && learn "${deft[@]}" &&
+    standard "${before[@]}" "${after[@]}" "${tail[@]}" "${deft[@]}" ;;
 esac
 if [[ $part == report || $part == all ]]; then
   mkdir -p "$results"
   runs=()
-  for entry in "${before[@]}" "${after[@]}" "${tail[@]}"; do
+  for entry in "${before[@]}" "${after[@]}" "${tail[@]}" "${deft[@]}"; do
     name=${entry%%:*}
     if [[ ! -f $work/standard/$name/report.json ]]; then
       echo "$name: not evaluated yet, left out of the report"

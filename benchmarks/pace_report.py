@@ -22,6 +22,8 @@ from libero_data.stats import mcnemar_exact, wilson_interval
 
 #: Today's demonstrations with 10 steps recorded after the goal (``generate --after-goal 10``).
 TAIL = "today, 10 steps after the goal"
+#: The expert at a deft pace (c5aa85a6618c: libero_goal/3 and /5 faster), 10 steps after the goal.
+DEFT = "deft pace, 10 steps after the goal"
 #: (run, task, limit, demonstrations) in the order the table lists them.
 RUNS = (
     ("before-goal-3", "libero_goal/3", 300, "before"),
@@ -33,6 +35,7 @@ RUNS = (
     ("tail-spatial-8", "libero_spatial/8", 220, TAIL),
     ("tail-goal-1", "libero_goal/1", 300, TAIL),
     ("tail-long-0", "libero_10/0", 520, TAIL),
+    ("deft-goal-3", "libero_goal/3", 300, DEFT),
 )
 #: Runs compared start for start: the same task on two kinds of demonstrations.
 PAIRS = (
@@ -40,6 +43,7 @@ PAIRS = (
     ("before-spatial-7", "after-spatial-7"),
     ("after-goal-3", "tail-goal-3"),
     ("after-spatial-7", "tail-spatial-7"),
+    ("tail-goal-3", "deft-goal-3"),
 )
 
 
@@ -167,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
         "",
         "The quick recipe (ResNet-T, quick size, 16 epochs, 100 demonstrations at 64x64, sampler starts) "
         "trained on the expert's demonstrations from before issue 74 and on today's, each task alone "
-        "(`tail-`: today's with 10 steps recorded after the goal, `generate --after-goal 10`). "
+        "(`tail-`: today's with 10 steps recorded after the goal, `generate --after-goal 10`; `deft-`: "
+        "the same from the expert at a deft pace, RESULTS' pending libero_goal/3 and /5 change). "
         "*Standard*: `libero-bench eval RUN --protocol standard --trials 20` (openpi's LIBERO loop, stored "
         "init states 0-19, the suite's own step limit after the 10 waits). *Stored* and *held out*: the "
         "run's own evaluation, 20 starts each, cut at the same limit. Wilson 95% intervals. *Failures "
