@@ -126,30 +126,27 @@ if [[ $part == carry-in ]]; then
   exit
 fi
 
-generate() {  # name suite task: the dataset WORK/<name>-64
-  local name=$1 suite=$2 index=$3
+checkout() {  # dir rev patch: a detached worktree of REV with PATCH applied (made once)
+  [[ -d $1 ]] && return
+  git worktree add --detach "$1" "$2" >/dev/null
+  git -C "$1" apply "$3"
+}
+generate() {  # name suite task: the dataset WORK/<name>-64, made by the code in SRC (on the path first)
+  local name=$1 suite=$2 index=$3 src=$repo after=0
+  local common=(--suite "$suite" --tasks "$index" --episodes-per-task 100 --image-size 64
+    --render-quality fast --workers 2 --seed 0 --out "$work/$name-64")
   if [[ $name == before-* ]]; then
-    if [[ ! -d $work/before-src ]]; then
-      git worktree add --detach "$work/before-src" "$BEFORE" >/dev/null
-      git -C "$work/before-src" apply "$repo/benchmarks/pace_before_sampler_fix.patch"
-    fi
-    # The old code, found first on the path; its generate kept every successful episode.
-    (cd "$work/before-src" && PYTHONPATH="$work/before-src" $ld generate --suite "$suite" --tasks "$index" \
-      --episodes-per-task 100 --image-size 64 --render-quality fast --workers 2 --seed 0 --out "$work/$name-64")
-  elif [[ $name == deft-* && -f $pending ]]; then
-    if [[ ! -d $work/deft-src ]]; then
-      git worktree add --detach "$work/deft-src" HEAD >/dev/null
-      git -C "$work/deft-src" apply "$repo/$pending"
-    fi
-    (cd "$work/deft-src" && PYTHONPATH="$work/deft-src" $ld generate --suite "$suite" --tasks "$index" \
-      --episodes-per-task 100 --image-size 64 --render-quality fast --workers 2 --seed 0 --after-goal 10 \
-      --out "$work/$name-64")
-  else
-    local after=0
-    [[ $name == tail-* || $name == deft-* ]] && after=10
-    $ld generate --suite "$suite" --tasks "$index" --episodes-per-task 100 --image-size 64 \
-      --render-quality fast --workers 2 --seed 0 --after-goal "$after" --out "$work/$name-64"
+    checkout "$work/before-src" "$BEFORE" "$repo/benchmarks/pace_before_sampler_fix.patch"
+    # The old code; its generate kept every successful episode and had no --after-goal.
+    (cd "$work/before-src" && PYTHONPATH="$work/before-src" $ld generate "${common[@]}")
+    return
   fi
+  [[ $name == tail-* || $name == deft-* ]] && after=10
+  if [[ $name == deft-* && -f $pending ]]; then
+    checkout "$work/deft-src" HEAD "$repo/$pending"
+    src=$work/deft-src
+  fi
+  (cd "$src" && PYTHONPATH="$src" $ld generate "${common[@]}" --after-goal "$after")
 }
 train() {  # name task limit
   local name=$1 index=$2 limit=$3
